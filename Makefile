@@ -1,0 +1,47 @@
+# tetopt — two commands on a fresh Debian 12 machine: `make demo`, `make test`.
+# Everything else (deps, configure, build) happens on the way.
+
+BUILD    ?= build
+JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
+DEMO_SIZE ?= 1.0
+PY       := /usr/bin/python3
+TETOPT   := $(BUILD)/tetopt
+
+# Debian 12 packages tetopt needs to build, test, demo and benchmark.
+DEB_PKGS := build-essential cmake libcgal-dev libgmp-dev libmpfr-dev libboost-dev \
+            libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen \
+            python3 python3-numpy python3-meshio python3-pytest python3-gmsh \
+            python3-dev pybind11-dev libtbb-dev
+
+.PHONY: all deps build demo test bench clean python
+
+all: build
+
+deps:
+	@missing=""; for p in $(DEB_PKGS); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=""; elif command -v sudo >/dev/null; then SUDO=sudo; \
+	  else echo "need root or sudo to install:$$missing" >&2; exit 1; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+$(BUILD)/CMakeCache.txt: | deps
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release
+
+build: deps $(BUILD)/CMakeCache.txt
+	cmake --build $(BUILD) -j $(JOBS)
+
+demo: build
+	bash demo/run_demo.sh $(TETOPT) $(DEMO_SIZE)
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+bench: build
+	bash bench/run_bench.sh $(BUILD)
+
+clean:
+	rm -rf $(BUILD)

@@ -1,0 +1,78 @@
+// tetopt/io.hpp — reading and writing every common tet-mesh format.
+//
+// Formats, chosen by file extension (format_from_path):
+//   .mesh / .meshb    Medit / GMF, ASCII and binary (versions 1-4)
+//   .msh              Gmsh 2.2 and 4.1, ASCII and binary
+//   .vtk / .vtu       VTK legacy (ASCII and binary) and XML UnstructuredGrid
+//   .node / .ele      TetGen (.face and region attributes read when present)
+//
+// Readers parse from a byte span, so tests and fuzzers need no files, and
+// never trust a count before the data is shown to exist (a lying count ends
+// in an error, not an allocation).  Every error is one line: "FILE:LINE: what"
+// (or "FILE: record N: what" for binary files).
+//
+// What tetopt does not change comes back out: vertex / triangle / tet refs,
+// listed edges, required entities, corners, ridges, physical names, Gmsh
+// entity tags, VTK point data.  Coordinates are written with 17 significant
+// digits (or raw doubles in binary formats) and read back bit-identical.
+// write_mesh writes to "PATH.tmp-XXXX" and renames at the end, so a failed
+// run never leaves half a file.
+#pragma once
+#include <string>
+#include <string_view>
+
+#include "tetopt/mesh.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt {
+
+enum class Format { Unknown, Medit, MeditBinary, Gmsh, Vtk, Vtu, TetGen };
+
+/// Format from the extension (.mesh .meshb .msh .vtk .vtu .node .ele; a
+/// trailing .gz is not supported and gives Unknown).
+Format format_from_path(const std::string& path);
+
+struct WriteOptions {
+  int msh_version = 41;       ///< 22 or 41 for .msh
+  bool binary = false;        ///< binary .msh / .vtk; .meshb is always binary
+  int meditb_version = 3;     ///< GMF version for .meshb: 2 (32-bit ints), 3 or 4 (64-bit)
+};
+
+/// Parses `data` (the bytes of a file named `name`, used in messages) into m's
+/// primary arrays.  For TetGen, `data` is the .node file and `aux` maps
+/// ".ele" / ".face" to the other files' bytes via load_sibling (see read_mesh).
+/// No orientation normalisation, no topology.
+Status parse_medit(std::string_view data, const std::string& name, TetMesh& m);
+Status parse_meditb(std::string_view data, const std::string& name, TetMesh& m);
+Status parse_gmsh(std::string_view data, const std::string& name, TetMesh& m);
+Status parse_vtk(std::string_view data, const std::string& name, TetMesh& m);
+Status parse_vtu(std::string_view data, const std::string& name, TetMesh& m);
+/// node, ele: required; face: may be empty.
+Status parse_tetgen(std::string_view node, std::string_view ele, std::string_view face,
+                    const std::string& name, TetMesh& m);
+
+/// Serialises m in the given format into `out` (bytes).  For TetGen, out is
+/// the .node text and out_ele / out_face receive the other files.
+Status format_medit(const TetMesh& m, std::string& out);
+Status format_meditb(const TetMesh& m, std::string& out, int version);
+Status format_gmsh(const TetMesh& m, std::string& out, int version, bool binary);
+Status format_vtk(const TetMesh& m, std::string& out, bool binary);
+Status format_vtu(const TetMesh& m, std::string& out);
+Status format_tetgen(const TetMesh& m, std::string& node, std::string& ele, std::string& face);
+
+/// Reads a file: format by extension (a .ele path reads its .node sibling
+/// and vice versa), parse, check_arrays, then normalize_orientation.  The
+/// orientation report (flipped? inverted / flat tet ids) goes to *orient when
+/// given.  Topology is not built.
+Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient = nullptr);
+
+/// Writes m (tets in the file's own orientation convention, see
+/// TetMesh::flipped_on_read) atomically: temporary file, then rename.
+Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions& opt = {});
+
+/// Reads a whole file into memory (Io error naming the path on failure).
+Status read_file_bytes(const std::string& path, std::string& out);
+/// Writes bytes to path through a temporary file and rename.
+Status write_file_atomic(const std::string& path, std::string_view bytes);
+
+}  // namespace tetopt

@@ -1,0 +1,155 @@
+// tetopt/mesh.hpp — the one mesh type that flows through every stage.
+//
+// TetMesh owns flat arrays (no Tet objects):
+//   xyz       3*nv doubles, x y z interleaved (the layout orient3d consumes)
+//   tets      4*nt int32, 0-based vertex ids, positively oriented after
+//             read (see conventions.hpp; files in the opposite convention are
+//             normalised on read and written back in their own convention)
+//   tet_ref   nt region refs (Medit ref, Gmsh physical volume, VTK/TetGen
+//             region attribute); faces between different refs are interfaces
+//   vert_ref, tris/tri_ref, edges/edge_ref, required_*, corners, ridges,
+//             physical_names: what the file carried, written back unchanged.
+//
+// Derived topology, filled by build_topology() and valid until the
+// connectivity changes (topo passes rebuild it, see topology_epoch):
+//   vt_offsets/vt_tets  vertex -> tet CSR (counting sort, ascending tet ids)
+//   adj                 4*nt packed neighbour faces 4t'+f', or -1 (boundary)
+//   face_mask           per tet, bit f set when face f is constrained
+//   vert_constrained    1 when the vertex never moves
+//   tet_kind            number of constrained vertices, 0..4 (paper Fig. 1;
+//                       4 = "all boundary element")
+//
+// Constrained entities (DESIGN.md): a face is constrained when it lies on one
+// tet, between tets of different refs, or is listed among the file's
+// triangles (every listed triangle is kept, so its ref survives).  A vertex is
+// constrained when it lies on a constrained face, on a listed edge, or is
+// listed as required / corner.  Constrained vertices never move, bit for bit;
+// constrained faces are never removed.
+//
+// Complexity: build_topology is O(nt + nv) time and memory apart from sorting
+// the faces around each vertex (small buckets).
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tetopt/conventions.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt {
+
+/// A name given to a physical group (Gmsh $PhysicalNames).
+struct PhysicalName {
+  int dim = 3;
+  int tag = 0;
+  std::string name;
+};
+
+struct TetMesh {
+  // ---- primary data (what files carry) ----
+  std::vector<double> xyz;           ///< nv x 3, interleaved
+  std::vector<int32_t> tets;         ///< nt x 4, 0-based, positive orientation
+  std::vector<int32_t> tet_ref;      ///< nt
+  std::vector<int32_t> vert_ref;     ///< nv (0 when the file has none)
+  std::vector<int32_t> tris;         ///< ntri x 3 listed triangles (0-based)
+  std::vector<int32_t> tri_ref;      ///< ntri
+  std::vector<int32_t> edges;        ///< nedge x 2 listed edges (0-based)
+  std::vector<int32_t> edge_ref;     ///< nedge
+  std::vector<int32_t> required_vertices;  ///< vertex ids
+  std::vector<int32_t> required_tris;      ///< indices into tris
+  std::vector<int32_t> required_edges;     ///< indices into edges
+  std::vector<int32_t> corners;            ///< vertex ids
+  std::vector<int32_t> ridges;             ///< indices into edges
+  std::vector<PhysicalName> physical_names;
+  /// Gmsh elementary entity tags of tets / listed triangles (empty when the
+  /// file has none); written back by the Gmsh writers.
+  std::vector<int32_t> tet_entity, tri_entity;
+  /// Per-vertex data arrays the file carried (VTK point data such as "fixed"),
+  /// written back by the VTK writers.  values: nv * components.
+  struct PointField {
+    std::string name;
+    int components = 1;
+    bool integer = false;
+    std::vector<double> values;
+  };
+  std::vector<PointField> point_fields;
+  /// True when the file stored tets in the opposite orientation; a writer of
+  /// the same format (source_format) swaps local vertices kFlipA/kFlipB back
+  /// so the file keeps its convention.  Writers of other formats use their
+  /// format's native convention (TetGen .ele: negative; all others: positive).
+  bool flipped_on_read = false;
+  int source_format = 0;  ///< tetopt::Format the mesh was read from (io.hpp), 0 unknown
+
+  // ---- derived topology (build_topology) ----
+  std::vector<int32_t> vt_offsets;     ///< nv+1
+  std::vector<int32_t> vt_tets;        ///< vt_offsets[nv]
+  std::vector<int32_t> adj;            ///< nt x 4 packed neighbour faces or -1
+  std::vector<uint8_t> face_mask;      ///< nt, bit f: face f constrained
+  std::vector<uint8_t> vert_constrained;  ///< nv
+  std::vector<uint8_t> tet_kind;       ///< nt, 0..4 constrained vertices
+  uint64_t topology_epoch = 0;         ///< bumped by every topology rebuild
+
+  int32_t nv() const { return static_cast<int32_t>(xyz.size() / 3); }
+  int32_t nt() const { return static_cast<int32_t>(tets.size() / 4); }
+  int32_t ntri() const { return static_cast<int32_t>(tris.size() / 3); }
+  const double* point(int32_t v) const { return &xyz[3 * static_cast<size_t>(v)]; }
+  double* point(int32_t v) { return &xyz[3 * static_cast<size_t>(v)]; }
+  const int32_t* tet(int32_t t) const { return &tets[4 * static_cast<size_t>(t)]; }
+  /// Tets around vertex v (valid after build_topology / build_vertex_tets).
+  const int32_t* star_begin(int32_t v) const { return vt_tets.data() + vt_offsets[v]; }
+  const int32_t* star_end(int32_t v) const { return vt_tets.data() + vt_offsets[v + 1]; }
+  bool is_boundary_tet(int32_t t) const { return tet_kind[t] > 0; }
+};
+
+/// Checks what a reader must guarantee before anything else runs: at least one
+/// tet, every index in range, finite coordinates, array sizes consistent.
+/// `name` prefixes the message (usually the file name).
+Status check_arrays(const TetMesh& m, const std::string& name = "mesh");
+
+/// Result of looking at every tet's exact orientation.
+struct OrientationReport {
+  int64_t positive = 0, negative = 0, flat = 0;
+  bool flipped = false;                ///< the whole mesh was flipped to positive
+  std::vector<int32_t> inverted;       ///< tets still negative after normalising (ids)
+  std::vector<int32_t> flat_tets;      ///< tets with zero exact volume (ids)
+};
+
+/// Makes tets positive: if most are negative the file used the opposite
+/// convention, so every tet is flipped and m.flipped_on_read toggles.  Tets
+/// that disagree with the majority or are flat are listed, not changed.
+OrientationReport normalize_orientation(TetMesh& m);
+
+/// Builds vertex->tet CSR, face adjacency and the constrained classification.
+/// Fails (InvalidMesh, naming tet ids) when a face is shared by three or more
+/// tets or two tets have the same four vertices.
+Status build_topology(TetMesh& m);
+
+/// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date).
+void build_vertex_tets(TetMesh& m);
+
+/// Rebuilds face adjacency; same failure cases as build_topology.
+Status build_adjacency(TetMesh& m);
+
+/// Recomputes face_mask, vert_constrained and tet_kind from adj, refs and the
+/// listed entities.  Requires adj.
+void classify(TetMesh& m);
+
+/// Levels of validate(): Cheap checks sizes and ranges; Full also checks
+/// adjacency symmetry, manifoldness and exact orientation of every tet.
+enum class ValidateLevel { Cheap, Full };
+
+/// Checks the invariants of a mesh with topology built.  Returns the first
+/// problem found, naming the tet or vertex.
+Status validate(const TetMesh& m, ValidateLevel level = ValidateLevel::Full);
+
+/// Sorted vertex triple of face f of tet t (for keys and comparisons).
+void face_key(const TetMesh& m, int32_t t, int f, int32_t out[3]);
+
+/// Signed volume of tet t (floating point; positive for positive tets).
+double tet_volume(const TetMesh& m, int32_t t);
+
+/// Sum of signed tet volumes per region ref, as (ref, volume) sorted by ref,
+/// summed in a fixed order (deterministic).
+std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m);
+
+}  // namespace tetopt

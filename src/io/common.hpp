@@ -1,0 +1,31 @@
+// Private helpers shared by the format readers and writers.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "tetopt/conventions.hpp"
+#include "tetopt/io.hpp"
+#include "tetopt/mesh.hpp"
+
+namespace tetopt::detail {
+
+/// Whether a writer of format `target` must swap kFlipA/kFlipB: to restore
+/// the source file's own convention when writing the same format, otherwise
+/// to use the target's native convention (TetGen: negative right-hand det).
+inline bool write_flipped(const TetMesh& m, Format target) {
+  if (static_cast<int>(target) == m.source_format) return m.flipped_on_read;
+  return target == Format::TetGen;
+}
+
+/// Vertex ids of tet t in the orientation a writer of `target` uses.
+inline void file_tet(const TetMesh& m, int32_t t, Format target, int32_t out[4]) {
+  const int32_t* v = m.tet(t);
+  out[0] = v[0]; out[1] = v[1]; out[2] = v[2]; out[3] = v[3];
+  if (write_flipped(m, target)) {
+    const int32_t x = out[kFlipA];
+    out[kFlipA] = out[kFlipB];
+    out[kFlipB] = x;
+  }
+}
+
+}  // namespace tetopt::detail

@@ -1,0 +1,139 @@
+// Format dispatch, whole-file reading and atomic writing (see io.hpp).
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <unistd.h>
+
+#include "tetopt/io.hpp"
+
+namespace tetopt {
+
+namespace {
+bool ends_with(const std::string& s, const char* suf) {
+  const std::string x(suf);
+  if (s.size() < x.size()) return false;
+  for (size_t i = 0; i < x.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(s[s.size() - x.size() + i])) != x[i]) return false;
+  return true;
+}
+std::string stem(const std::string& p) {
+  const size_t dot = p.find_last_of('.');
+  const size_t slash = p.find_last_of('/');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return p;
+  return p.substr(0, dot);
+}
+}  // namespace
+
+Format format_from_path(const std::string& path) {
+  if (ends_with(path, ".meshb")) return Format::MeditBinary;
+  if (ends_with(path, ".mesh")) return Format::Medit;
+  if (ends_with(path, ".msh")) return Format::Gmsh;
+  if (ends_with(path, ".vtk")) return Format::Vtk;
+  if (ends_with(path, ".vtu")) return Format::Vtu;
+  if (ends_with(path, ".node") || ends_with(path, ".ele")) return Format::TetGen;
+  return Format::Unknown;
+}
+
+Status read_file_bytes(const std::string& path, std::string& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::error(ErrorCode::Io, path + ": cannot open for reading");
+  in.seekg(0, std::ios::end);
+  const std::streamoff n = in.tellg();
+  if (n < 0) return Status::error(ErrorCode::Io, path + ": cannot determine the file size");
+  in.seekg(0, std::ios::beg);
+  out.resize(static_cast<size_t>(n));
+  if (n > 0 && !in.read(out.data(), n)) return Status::error(ErrorCode::Io, path + ": read failed");
+  return Status::success();
+}
+
+Status write_file_atomic(const std::string& path, std::string_view bytes) {
+  std::random_device rd;
+  const std::string tmp = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.flush();
+    if (!out) {
+      out.close();
+      std::remove(tmp.c_str());
+      return Status::error(ErrorCode::Io, path + ": write failed (disk full?)");
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
+  }
+  return Status::success();
+}
+
+Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient) {
+  m = TetMesh{};
+  const Format f = format_from_path(path);
+  std::string data;
+  Status s;
+  switch (f) {
+    case Format::Unknown:
+      return Status::error(ErrorCode::Unsupported,
+                           path + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+    case Format::TetGen: {
+      const std::string base = stem(path);
+      std::string ele, face;
+      if (s = read_file_bytes(base + ".node", data); !s) return s;
+      if (s = read_file_bytes(base + ".ele", ele); !s) return s;
+      std::ifstream probe(base + ".face");
+      if (probe.good())
+        if (s = read_file_bytes(base + ".face", face); !s) return s;
+      s = parse_tetgen(data, ele, face, base, m);
+      break;
+    }
+    default:
+      if (s = read_file_bytes(path, data); !s) return s;
+      if (f == Format::Medit) s = parse_medit(data, path, m);
+      else if (f == Format::MeditBinary) s = parse_meditb(data, path, m);
+      else if (f == Format::Gmsh) s = parse_gmsh(data, path, m);
+      else if (f == Format::Vtk) s = parse_vtk(data, path, m);
+      else s = parse_vtu(data, path, m);
+  }
+  if (!s) return s;
+  m.source_format = static_cast<int>(f);
+  if (m.vert_ref.empty()) m.vert_ref.assign(m.nv(), 0);
+  if (m.tet_ref.empty()) m.tet_ref.assign(m.nt(), 0);
+  if (m.tri_ref.size() < static_cast<size_t>(m.ntri())) m.tri_ref.resize(m.ntri(), 0);
+  if (m.edge_ref.size() < m.edges.size() / 2) m.edge_ref.resize(m.edges.size() / 2, 0);
+  if (s = check_arrays(m, path); !s) return s;
+  OrientationReport r = normalize_orientation(m);
+  if (orient) *orient = std::move(r);
+  return Status::success();
+}
+
+Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions& opt) {
+  const Format f = format_from_path(path);
+  std::string out;
+  Status s;
+  switch (f) {
+    case Format::Unknown:
+      return Status::error(ErrorCode::Unsupported,
+                           path + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+    case Format::TetGen: {
+      std::string ele, face;
+      if (s = format_tetgen(m, out, ele, face); !s) return s;
+      const std::string base = stem(path);
+      if (s = write_file_atomic(base + ".node", out); !s) return s;
+      if (s = write_file_atomic(base + ".ele", ele); !s) return s;
+      if (!face.empty())
+        if (s = write_file_atomic(base + ".face", face); !s) return s;
+      return Status::success();
+    }
+    case Format::Medit: s = format_medit(m, out); break;
+    case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;
+    case Format::Gmsh: s = format_gmsh(m, out, opt.msh_version, opt.binary); break;
+    case Format::Vtk: s = format_vtk(m, out, opt.binary); break;
+    case Format::Vtu: s = format_vtu(m, out); break;
+  }
+  if (!s) return Status::error(s.code, path + ": " + s.message);
+  return write_file_atomic(path, out);
+}
+
+}  // namespace tetopt

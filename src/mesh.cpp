@@ -1,0 +1,309 @@
+// TetMesh topology, classification and validation (see mesh.hpp).
+#include "tetopt/mesh.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include "tetopt/predicates.hpp"
+#include "tetopt/quality.hpp"
+
+namespace tetopt {
+
+namespace {
+inline void sort3(int32_t& a, int32_t& b, int32_t& c) {
+  if (a > b) std::swap(a, b);
+  if (b > c) std::swap(b, c);
+  if (a > b) std::swap(a, b);
+}
+}  // namespace
+
+void face_key(const TetMesh& m, int32_t t, int f, int32_t out[3]) {
+  const int32_t* v = m.tet(t);
+  out[0] = v[kFaceVertex[f][0]];
+  out[1] = v[kFaceVertex[f][1]];
+  out[2] = v[kFaceVertex[f][2]];
+  sort3(out[0], out[1], out[2]);
+}
+
+Status check_arrays(const TetMesh& m, const std::string& name) {
+  if (m.xyz.size() % 3 != 0 || m.tets.size() % 4 != 0)
+    return Status::error(ErrorCode::InvalidMesh, name + ": inconsistent array sizes");
+  const int32_t nv = m.nv(), nt = m.nt();
+  if (nt == 0) return Status::error(ErrorCode::InvalidMesh, name + ": the mesh has no tetrahedra");
+  if (m.tet_ref.size() != static_cast<size_t>(nt))
+    return Status::error(ErrorCode::InvalidMesh, name + ": tet_ref size differs from the tet count");
+  if (!m.vert_ref.empty() && m.vert_ref.size() != static_cast<size_t>(nv))
+    return Status::error(ErrorCode::InvalidMesh, name + ": vert_ref size differs from the vertex count");
+  for (int32_t v = 0; v < nv; ++v) {
+    const double* p = m.point(v);
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return Status::error(ErrorCode::InvalidMesh,
+                           name + ": vertex " + std::to_string(v + 1) + " has a NaN or infinite coordinate");
+  }
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m.tet(t);
+    for (int k = 0; k < 4; ++k)
+      if (v[k] < 0 || v[k] >= nv)
+        return Status::error(ErrorCode::InvalidMesh, name + ": tetrahedron " + std::to_string(t + 1) +
+                                                         " names vertex " + std::to_string(v[k] + 1) +
+                                                         ", outside 1.." + std::to_string(nv));
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j)
+        if (v[i] == v[j])
+          return Status::error(ErrorCode::InvalidMesh, name + ": tetrahedron " + std::to_string(t + 1) +
+                                                           " repeats vertex " + std::to_string(v[i] + 1));
+  }
+  auto check_list = [&](const std::vector<int32_t>& a, int per, const char* what) -> Status {
+    if (a.size() % per) return Status::error(ErrorCode::InvalidMesh, name + ": bad " + what + " array");
+    for (size_t i = 0; i < a.size(); ++i)
+      if (a[i] < 0 || a[i] >= nv)
+        return Status::error(ErrorCode::InvalidMesh, name + ": " + what + " " + std::to_string(i / per + 1) +
+                                                         " names vertex " + std::to_string(a[i] + 1) +
+                                                         ", outside 1.." + std::to_string(nv));
+    return Status::success();
+  };
+  if (Status s = check_list(m.tris, 3, "triangle"); !s) return s;
+  if (Status s = check_list(m.edges, 2, "edge"); !s) return s;
+  if (Status s = check_list(m.required_vertices, 1, "required vertex"); !s) return s;
+  if (Status s = check_list(m.corners, 1, "corner"); !s) return s;
+  if (m.tri_ref.size() != m.tris.size() / 3 || m.edge_ref.size() != m.edges.size() / 2)
+    return Status::error(ErrorCode::InvalidMesh, name + ": ref arrays differ from entity counts");
+  for (int32_t i : m.required_tris)
+    if (i < 0 || i >= m.ntri())
+      return Status::error(ErrorCode::InvalidMesh, name + ": required triangle index out of range");
+  for (const auto* lst : {&m.required_edges, &m.ridges})
+    for (int32_t i : *lst)
+      if (i < 0 || static_cast<size_t>(i) >= m.edges.size() / 2)
+        return Status::error(ErrorCode::InvalidMesh, name + ": required edge or ridge index out of range");
+  return Status::success();
+}
+
+OrientationReport normalize_orientation(TetMesh& m) {
+  OrientationReport r;
+  const int32_t nt = m.nt();
+  std::vector<int8_t> sign(nt);
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m.tet(t);
+    const Sign s = orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]));
+    sign[t] = static_cast<int8_t>(s);
+    if (s == Sign::Positive) r.positive++;
+    else if (s == Sign::Negative) r.negative++;
+    else r.flat++;
+  }
+  if (r.negative > r.positive) {
+    for (int32_t t = 0; t < nt; ++t) {
+      std::swap(m.tets[4 * static_cast<size_t>(t) + kFlipA], m.tets[4 * static_cast<size_t>(t) + kFlipB]);
+      sign[t] = static_cast<int8_t>(-sign[t]);
+    }
+    std::swap(r.positive, r.negative);
+    m.flipped_on_read = !m.flipped_on_read;
+    r.flipped = true;
+  }
+  for (int32_t t = 0; t < nt; ++t) {
+    if (sign[t] < 0) r.inverted.push_back(t);
+    else if (sign[t] == 0) r.flat_tets.push_back(t);
+  }
+  return r;
+}
+
+void build_vertex_tets(TetMesh& m) {
+  const int32_t nv = m.nv(), nt = m.nt();
+  m.vt_offsets.assign(static_cast<size_t>(nv) + 1, 0);
+  for (int32_t v : m.tets) m.vt_offsets[v + 1]++;
+  for (int32_t v = 0; v < nv; ++v) m.vt_offsets[v + 1] += m.vt_offsets[v];
+  m.vt_tets.resize(m.tets.size());
+  std::vector<int32_t> fill(m.vt_offsets.begin(), m.vt_offsets.end() - 1);
+  for (int32_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 4; ++k) m.vt_tets[fill[m.tets[4 * static_cast<size_t>(t) + k]]++] = t;
+}
+
+Status build_adjacency(TetMesh& m) {
+  // Faces are bucketed by their smallest vertex (counting sort), then each
+  // small bucket is sorted by the two other vertices; equal neighbours pair up.
+  const int32_t nv = m.nv(), nt = m.nt();
+  const size_t nf = 4 * static_cast<size_t>(nt);
+  std::vector<int32_t> off(static_cast<size_t>(nv) + 1, 0);
+  for (int32_t t = 0; t < nt; ++t)
+    for (int f = 0; f < 4; ++f) {
+      int32_t k[3];
+      face_key(m, t, f, k);
+      off[k[0] + 1]++;
+    }
+  for (int32_t v = 0; v < nv; ++v) off[v + 1] += off[v];
+  struct Entry {
+    uint64_t key;  // (second, third) vertex
+    int32_t face;  // packed 4t+f
+  };
+  std::vector<Entry> ent(nf);
+  {
+    std::vector<int32_t> fill(off.begin(), off.end() - 1);
+    for (int32_t t = 0; t < nt; ++t)
+      for (int f = 0; f < 4; ++f) {
+        int32_t k[3];
+        face_key(m, t, f, k);
+        ent[fill[k[0]]++] = {(static_cast<uint64_t>(k[1]) << 32) | static_cast<uint32_t>(k[2]), 4 * t + f};
+      }
+  }
+  m.adj.assign(nf, -1);
+  for (int32_t v = 0; v < nv; ++v) {
+    Entry* b = ent.data() + off[v];
+    Entry* e = ent.data() + off[v + 1];
+    std::sort(b, e, [](const Entry& x, const Entry& y) {
+      return x.key != y.key ? x.key < y.key : x.face < y.face;
+    });
+    for (Entry* p = b; p < e;) {
+      Entry* q = p + 1;
+      while (q < e && q->key == p->key) ++q;
+      const long cnt = q - p;
+      if (cnt > 2) {
+        std::string ids;
+        for (Entry* r = p; r < q; ++r) ids += (r == p ? "" : ", ") + std::to_string(r->face / 4 + 1);
+        return Status::error(ErrorCode::InvalidMesh,
+                             "face (" + std::to_string(v + 1) + ", " + std::to_string((p->key >> 32) + 1) + ", " +
+                                 std::to_string((p->key & 0xffffffffu) + 1) + ") is shared by " +
+                                 std::to_string(cnt) + " tetrahedra (" + ids + "): the mesh is not manifold");
+      }
+      if (cnt == 2) {
+        m.adj[p[0].face] = p[1].face;
+        m.adj[p[1].face] = p[0].face;
+      }
+      p = q;
+    }
+  }
+  // Two tets sharing two faces have the same four vertices: a duplicate.
+  for (int32_t t = 0; t < nt; ++t)
+    for (int f = 0; f < 4; ++f)
+      for (int g = f + 1; g < 4; ++g) {
+        const int32_t a = m.adj[4 * t + f], b = m.adj[4 * t + g];
+        if (a >= 0 && b >= 0 && a / 4 == b / 4)
+          return Status::error(ErrorCode::InvalidMesh, "tetrahedra " + std::to_string(t + 1) + " and " +
+                                                           std::to_string(a / 4 + 1) +
+                                                           " have the same four vertices (duplicate tetrahedron)");
+      }
+  return Status::success();
+}
+
+void classify(TetMesh& m) {
+  const int32_t nv = m.nv(), nt = m.nt();
+  m.face_mask.assign(nt, 0);
+  m.vert_constrained.assign(nv, 0);
+  m.tet_kind.assign(nt, 0);
+  // Listed triangles are constrained faces: look them up by sorted key.
+  struct Tri { int32_t a, b, c; };
+  std::vector<Tri> tri_sorted;
+  if (!m.tris.empty()) {
+    tri_sorted.reserve(m.ntri());
+    for (int32_t i = 0; i < m.ntri(); ++i) {
+      int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
+      sort3(a, b, c);
+      tri_sorted.push_back({a, b, c});
+    }
+    std::sort(tri_sorted.begin(), tri_sorted.end(), [](const Tri& x, const Tri& y) {
+      return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.c < y.c);
+    });
+  }
+  auto is_listed = [&](const int32_t k[3]) {
+    if (tri_sorted.empty()) return false;
+    const Tri key{k[0], k[1], k[2]};
+    return std::binary_search(tri_sorted.begin(), tri_sorted.end(), key, [](const Tri& x, const Tri& y) {
+      return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.c < y.c);
+    });
+  };
+  for (int32_t t = 0; t < nt; ++t) {
+    uint8_t mask = 0;
+    for (int f = 0; f < 4; ++f) {
+      const int32_t n = m.adj[4 * t + f];
+      bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t];
+      if (!c && !tri_sorted.empty()) {
+        int32_t k[3];
+        face_key(m, t, f, k);
+        c = is_listed(k);
+      }
+      if (c) {
+        mask |= static_cast<uint8_t>(1u << f);
+        const int32_t* v = m.tet(t);
+        for (int i = 0; i < 3; ++i) m.vert_constrained[v[kFaceVertex[f][i]]] = 1;
+      }
+    }
+    m.face_mask[t] = mask;
+  }
+  for (int32_t v : m.required_vertices) m.vert_constrained[v] = 1;
+  for (int32_t v : m.corners) m.vert_constrained[v] = 1;
+  for (int32_t v : m.edges) m.vert_constrained[v] = 1;
+  for (int32_t i : m.required_tris)
+    for (int k = 0; k < 3; ++k) m.vert_constrained[m.tris[3 * i + k]] = 1;
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m.tet(t);
+    m.tet_kind[t] = static_cast<uint8_t>(m.vert_constrained[v[0]] + m.vert_constrained[v[1]] +
+                                         m.vert_constrained[v[2]] + m.vert_constrained[v[3]]);
+  }
+}
+
+Status build_topology(TetMesh& m) {
+  if (Status s = build_adjacency(m); !s) return s;
+  build_vertex_tets(m);
+  classify(m);
+  m.topology_epoch++;
+  return Status::success();
+}
+
+Status validate(const TetMesh& m, ValidateLevel level) {
+  if (Status s = check_arrays(m); !s) return s;
+  const int32_t nt = m.nt();
+  if (m.adj.size() != m.tets.size() || m.face_mask.size() != static_cast<size_t>(nt) ||
+      m.tet_kind.size() != static_cast<size_t>(nt) || m.vert_constrained.size() != static_cast<size_t>(m.nv()))
+    return Status::error(ErrorCode::Invariant, "topology arrays are not built or stale");
+  if (level == ValidateLevel::Cheap) return Status::success();
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m.tet(t);
+    if (orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])) != Sign::Positive)
+      return Status::error(ErrorCode::Invariant,
+                           "tetrahedron " + std::to_string(t + 1) + " is inverted or flat");
+    for (int f = 0; f < 4; ++f) {
+      const int32_t n = m.adj[4 * t + f];
+      if (n < 0) continue;
+      if (n >= static_cast<int32_t>(m.adj.size()) || m.adj[n] != 4 * t + f)
+        return Status::error(ErrorCode::Invariant,
+                             "adjacency of tetrahedron " + std::to_string(t + 1) + " is not symmetric");
+      int32_t a[3], b[3];
+      face_key(m, t, f, a);
+      face_key(m, n / 4, n % 4, b);
+      if (a[0] != b[0] || a[1] != b[1] || a[2] != b[2])
+        return Status::error(ErrorCode::Invariant,
+                             "tetrahedra " + std::to_string(t + 1) + " and " + std::to_string(n / 4 + 1) +
+                                 " are marked adjacent but do not share the face");
+    }
+  }
+  // Rebuild adjacency from scratch on a copy and compare: catches faces
+  // shared by three tets and neighbours that were never linked.
+  TetMesh copy;
+  copy.xyz = m.xyz;
+  copy.tets = m.tets;
+  copy.tet_ref = m.tet_ref;
+  if (Status s = build_adjacency(copy); !s) return Status::error(ErrorCode::Invariant, s.message);
+  if (copy.adj != m.adj) return Status::error(ErrorCode::Invariant, "stored adjacency differs from a rebuild");
+  return Status::success();
+}
+
+double tet_volume(const TetMesh& m, int32_t t) {
+  const int32_t* v = m.tet(t);
+  return tet_signed_volume(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]));
+}
+
+std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m) {
+  std::map<int32_t, std::pair<double, double>> acc;  // Neumaier sum per ref
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    auto& [s, c] = acc[m.tet_ref[t]];
+    const double x = tet_volume(m, t);
+    const double u = s + x;
+    c += std::fabs(s) >= std::fabs(x) ? (s - u) + x : (x - u) + s;
+    s = u;
+  }
+  std::vector<std::pair<int32_t, double>> out;
+  for (auto& [r, sc] : acc) out.emplace_back(r, sc.first + sc.second);
+  return out;
+}
+
+}  // namespace tetopt

@@ -1,0 +1,264 @@
+// Quality measures and statistics (see quality.hpp).
+#include "tetopt/quality.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <sstream>
+
+#include "tetopt/conventions.hpp"
+#include "tetopt/mesh.hpp"
+
+namespace tetopt {
+namespace {
+inline void sub(const double* a, const double* b, double* r) {
+  r[0] = a[0] - b[0]; r[1] = a[1] - b[1]; r[2] = a[2] - b[2];
+}
+inline void cross(const double* a, const double* b, double* r) {
+  r[0] = a[1] * b[2] - a[2] * b[1];
+  r[1] = a[2] * b[0] - a[0] * b[2];
+  r[2] = a[0] * b[1] - a[1] * b[0];
+}
+inline double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline double norm(const double* a) { return std::sqrt(dot(a, a)); }
+const double kSixSqrt6 = 6.0 * std::sqrt(6.0);
+
+// Neumaier-compensated sum, so means over millions of tets stay exact to ~1e-15.
+struct Sum {
+  double s = 0, c = 0;
+  void add(double x) {
+    const double t = s + x;
+    c += std::fabs(s) >= std::fabs(x) ? (s - t) + x : (x - t) + s;
+    s = t;
+  }
+  double value() const { return s + c; }
+};
+}  // namespace
+
+double tet_signed_volume(const double* a, const double* b, const double* c, const double* d) {
+  double u[3], v[3], w[3], x[3];
+  sub(b, a, u); sub(c, a, v); sub(d, a, w);
+  cross(v, w, x);
+  return dot(u, x) / 6.0;
+}
+
+double alpha(const double* a, const double* b, const double* c, const double* d) {
+  const double* p[4] = {a, b, c, d};
+  const double vol = tet_signed_volume(a, b, c, d);
+  double area = 0;
+  for (int f = 0; f < 4; ++f) {
+    double u[3], v[3], n[3];
+    sub(p[kFaceVertex[f][1]], p[kFaceVertex[f][0]], u);
+    sub(p[kFaceVertex[f][2]], p[kFaceVertex[f][0]], v);
+    cross(u, v, n);
+    area += 0.5 * norm(n);
+  }
+  double l2 = 0;
+  for (int e = 0; e < 6; ++e) {
+    double u[3];
+    sub(p[kEdgeVertex[e][1]], p[kEdgeVertex[e][0]], u);
+    l2 = std::max(l2, dot(u, u));
+  }
+  const double den = area * std::sqrt(l2);
+  if (!(den > 0)) return 0.0;
+  const double q = kSixSqrt6 * vol / den;
+  return std::isfinite(q) ? q : 0.0;
+}
+
+void dihedral_angles(const double* a, const double* b, const double* c, const double* d,
+                     double out[6]) {
+  const double* p[4] = {a, b, c, d};
+  for (int e = 0; e < 6; ++e) {
+    const double* pi = p[kEdgeVertex[e][0]];
+    const double* pj = p[kEdgeVertex[e][1]];
+    const int o = kEdgeOpposite[e];
+    const double* pk = p[kEdgeVertex[o][0]];
+    const double* pl = p[kEdgeVertex[o][1]];
+    double ax[3], u[3], v[3];
+    sub(pj, pi, ax);
+    const double la = norm(ax);
+    if (la > 0) { ax[0] /= la; ax[1] /= la; ax[2] /= la; }
+    sub(pk, pi, u);
+    sub(pl, pi, v);
+    const double du = dot(u, ax), dv = dot(v, ax);
+    for (int k = 0; k < 3; ++k) { u[k] -= du * ax[k]; v[k] -= dv * ax[k]; }
+    double x[3];
+    cross(u, v, x);
+    const double s = norm(x), cth = dot(u, v);
+    out[e] = (s == 0 && cth == 0) ? 0.0 : std::atan2(s, cth) * (180.0 / M_PI);
+  }
+}
+
+double mean_ratio(const double* a, const double* b, const double* c, const double* d) {
+  const double* p[4] = {a, b, c, d};
+  const double vol = tet_signed_volume(a, b, c, d);
+  double l2 = 0;
+  for (int e = 0; e < 6; ++e) {
+    double u[3];
+    sub(p[kEdgeVertex[e][1]], p[kEdgeVertex[e][0]], u);
+    l2 += dot(u, u);
+  }
+  if (!(l2 > 0)) return 0.0;
+  const double q = 12.0 * std::cbrt(9.0 * vol * vol) / l2;
+  return vol < 0 ? -q : q;
+}
+
+double radius_ratio(const double* a, const double* b, const double* c, const double* d) {
+  const double* p[4] = {a, b, c, d};
+  const double vol = std::fabs(tet_signed_volume(a, b, c, d));
+  double area = 0;
+  for (int f = 0; f < 4; ++f) {
+    double u[3], v[3], n[3];
+    sub(p[kFaceVertex[f][1]], p[kFaceVertex[f][0]], u);
+    sub(p[kFaceVertex[f][2]], p[kFaceVertex[f][0]], v);
+    cross(u, v, n);
+    area += 0.5 * norm(n);
+  }
+  double u[3], v[3], w[3], bc[3], ca[3], ab[3], num[3];
+  sub(b, a, u); sub(c, a, v); sub(d, a, w);
+  cross(v, w, bc); cross(w, u, ca); cross(u, v, ab);
+  const double lu = dot(u, u), lv = dot(v, v), lw = dot(w, w);
+  for (int k = 0; k < 3; ++k) num[k] = lu * bc[k] + lv * ca[k] + lw * ab[k];
+  if (!(vol > 0) || !(area > 0)) return 0.0;
+  const double circum = norm(num) / (12.0 * vol);
+  const double in = 3.0 * vol / area;
+  const double q = 3.0 * in / circum;
+  return std::isfinite(q) ? q : 0.0;
+}
+
+double tet_alpha(const TetMesh& m, int32_t t) {
+  const int32_t* v = m.tet(t);
+  return alpha(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]));
+}
+
+QualityStats compute_stats(const TetMesh& m) {
+  QualityStats s;
+  const int32_t nt = m.nt();
+  s.tets = nt;
+  std::vector<uint8_t> used(m.nv(), 0);
+  Sum all, bnd, inr;
+  s.alpha_worst = s.alpha_boundary_worst = s.alpha_interior_worst = INFINITY;
+  s.dihedral_min = INFINITY;
+  s.dihedral_max = -INFINITY;
+  s.mean_ratio_worst = s.radius_ratio_worst = INFINITY;
+  std::set<int32_t> refs;
+  const bool have_kind = static_cast<int32_t>(m.tet_kind.size()) == nt;
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m.tet(t);
+    for (int k = 0; k < 4; ++k) used[v[k]] = 1;
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
+    const double q = alpha(a, b, c, d);
+    const int kind = have_kind ? m.tet_kind[t] : 0;
+    s.kind_count[kind]++;
+    all.add(q);
+    if (q < s.alpha_worst) { s.alpha_worst = q; s.worst_tet = t; }
+    if (kind > 0) { bnd.add(q); s.alpha_boundary_worst = std::min(s.alpha_boundary_worst, q); }
+    else { inr.add(q); s.alpha_interior_worst = std::min(s.alpha_interior_worst, q); }
+    if (q <= 0) s.inverted_or_flat++;
+    if (q < 0.1) s.alpha_below_01++;
+    if (q < 0.2) s.alpha_below_02++;
+    if (q < 0.3) s.alpha_below_03++;
+    int bin = q <= 0 ? 0 : std::min(9, static_cast<int>(q * 10));
+    s.alpha_histogram[bin]++;
+    double dh[6];
+    dihedral_angles(a, b, c, d, dh);
+    bool small = false, large = false;
+    for (double x : dh) {
+      s.dihedral_min = std::min(s.dihedral_min, x);
+      s.dihedral_max = std::max(s.dihedral_max, x);
+      s.dihedral_histogram[std::min(17, std::max(0, static_cast<int>(x / 10)))]++;
+      small |= x < 5;
+      large |= x > 175;
+    }
+    s.dihedral_below_5 += small;
+    s.dihedral_above_175 += large;
+    s.mean_ratio_worst = std::min(s.mean_ratio_worst, mean_ratio(a, b, c, d));
+    s.radius_ratio_worst = std::min(s.radius_ratio_worst, radius_ratio(a, b, c, d));
+    refs.insert(m.tet_ref.empty() ? 0 : m.tet_ref[t]);
+  }
+  for (uint8_t u : used) s.vertices += u;
+  s.boundary_tets = nt - s.kind_count[0];
+  s.all_boundary_tets = s.kind_count[4];
+  s.regions = static_cast<int64_t>(refs.size());
+  s.alpha_mean = nt ? all.value() / nt : NAN;
+  s.alpha_boundary_mean = s.boundary_tets ? bnd.value() / s.boundary_tets : NAN;
+  s.alpha_interior_mean = s.kind_count[0] ? inr.value() / s.kind_count[0] : NAN;
+  if (!s.boundary_tets) s.alpha_boundary_worst = NAN;
+  if (!s.kind_count[0]) s.alpha_interior_worst = NAN;
+  return s;
+}
+
+TetQualityFields compute_fields(const TetMesh& m) {
+  TetQualityFields f;
+  const int32_t nt = m.nt();
+  f.alpha.resize(nt);
+  f.dihedral_min.resize(nt);
+  f.dihedral_max.resize(nt);
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m.tet(t);
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
+    f.alpha[t] = alpha(a, b, c, d);
+    double dh[6];
+    dihedral_angles(a, b, c, d, dh);
+    f.dihedral_min[t] = *std::min_element(dh, dh + 6);
+    f.dihedral_max[t] = *std::max_element(dh, dh + 6);
+  }
+  return f;
+}
+
+namespace {
+std::string num(double x) {
+  if (std::isnan(x)) return "null";
+  if (std::isinf(x)) return x > 0 ? "1e999" : "-1e999";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+}  // namespace
+
+std::string stats_to_json(const QualityStats& s, int indent) {
+  const std::string pad(indent, ' ');
+  std::ostringstream o;
+  o << "{\n";
+  auto kv = [&](const char* k, const std::string& v, bool last = false) {
+    o << pad << "\"" << k << "\": " << v << (last ? "\n" : ",\n");
+  };
+  kv("vertices", std::to_string(s.vertices));
+  kv("tets", std::to_string(s.tets));
+  kv("boundary_tets", std::to_string(s.boundary_tets));
+  kv("all_boundary_tets", std::to_string(s.all_boundary_tets));
+  kv("kind_counts", "[" + std::to_string(s.kind_count[0]) + ", " + std::to_string(s.kind_count[1]) +
+                        ", " + std::to_string(s.kind_count[2]) + ", " + std::to_string(s.kind_count[3]) +
+                        ", " + std::to_string(s.kind_count[4]) + "]");
+  kv("regions", std::to_string(s.regions));
+  kv("alpha_worst", num(s.alpha_worst));
+  kv("alpha_mean", num(s.alpha_mean));
+  kv("alpha_boundary_worst", num(s.alpha_boundary_worst));
+  kv("alpha_boundary_mean", num(s.alpha_boundary_mean));
+  kv("alpha_interior_worst", num(s.alpha_interior_worst));
+  kv("alpha_interior_mean", num(s.alpha_interior_mean));
+  kv("alpha_below_0.1", std::to_string(s.alpha_below_01));
+  kv("alpha_below_0.2", std::to_string(s.alpha_below_02));
+  kv("alpha_below_0.3", std::to_string(s.alpha_below_03));
+  kv("dihedral_min", num(s.dihedral_min));
+  kv("dihedral_max", num(s.dihedral_max));
+  kv("tets_dihedral_below_5", std::to_string(s.dihedral_below_5));
+  kv("tets_dihedral_above_175", std::to_string(s.dihedral_above_175));
+  kv("mean_ratio_worst", num(s.mean_ratio_worst));
+  kv("radius_ratio_worst", num(s.radius_ratio_worst));
+  kv("inverted_or_flat", std::to_string(s.inverted_or_flat));
+  kv("worst_tet", std::to_string(s.worst_tet));
+  std::string h = "[";
+  for (size_t i = 0; i < s.alpha_histogram.size(); ++i)
+    h += (i ? ", " : "") + std::to_string(s.alpha_histogram[i]);
+  kv("alpha_histogram_0.1", h + "]");
+  h = "[";
+  for (size_t i = 0; i < s.dihedral_histogram.size(); ++i)
+    h += (i ? ", " : "") + std::to_string(s.dihedral_histogram[i]);
+  kv("dihedral_histogram_10deg", h + "]", true);
+  o << std::string(indent > 2 ? indent - 2 : 0, ' ') << "}";
+  return o.str();
+}
+
+}  // namespace tetopt
