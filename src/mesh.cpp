@@ -158,6 +158,19 @@ Status build_adjacency(TetMesh& m) {
       while (q < e && q->key == p->key) ++q;
       const long cnt = q - p;
       if (cnt > 2) {
+        for (Entry* r = p; r < q; ++r)
+          for (Entry* w = r + 1; w < q; ++w) {
+            int32_t ta[4], tb[4];
+            std::copy(m.tet(r->face / 4), m.tet(r->face / 4) + 4, ta);
+            std::copy(m.tet(w->face / 4), m.tet(w->face / 4) + 4, tb);
+            std::sort(ta, ta + 4);
+            std::sort(tb, tb + 4);
+            if (std::equal(ta, ta + 4, tb))
+              return Status::error(ErrorCode::InvalidMesh,
+                                   "tetrahedra " + std::to_string(r->face / 4 + 1) + " and " +
+                                       std::to_string(w->face / 4 + 1) +
+                                       " have the same four vertices (duplicate tetrahedron)");
+          }
         std::string ids;
         for (Entry* r = p; r < q; ++r) ids += (r == p ? "" : ", ") + std::to_string(r->face / 4 + 1);
         return Status::error(ErrorCode::InvalidMesh,

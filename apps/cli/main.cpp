@@ -1,2 +1,67 @@
+// tetopt command line: a thin front end over the library (no algorithms here).
+#include <unistd.h>
+
+#include <chrono>
+#include <csignal>
 #include <cstdio>
-int main() { std::puts("tetopt: under construction"); return 0; }
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "cli.hpp"
+
+namespace {
+
+const char* kMainHelp =
+    "tetopt — improve tetrahedral meshes without touching their boundary\n"
+    "\n"
+    "usage: tetopt <command> [options]\n"
+    "\n"
+    "commands:\n"
+    "  quality IN [--json] [--field OUT.vtu] [--no-histogram]\n"
+    "                 quality statistics (paper's Table 1/3 columns) and histograms\n"
+    "  improve IN -o OUT [options]\n"
+    "                 improve the mesh; boundary, interfaces and refs stay bit-identical\n"
+    "  convert IN OUT [--msh-version 22|41] [--binary]\n"
+    "                 convert between formats (by extension)\n"
+    "\n"
+    "formats (by extension): .mesh .meshb (Medit), .msh (Gmsh 2.2/4.1), .vtk .vtu (VTK),\n"
+    "                        .node/.ele[/.face] (TetGen)\n"
+    "\n"
+    "Run 'tetopt <command> --help' for the options of a command.\n"
+    "\n"
+    "exit codes:\n"
+    "  0  success\n"
+    "  1  usage error (unknown option, missing argument)\n"
+    "  2  input error (unreadable, malformed or invalid mesh file); nothing written\n"
+    "  3  invariant failure: a bug broke a promise (boundary, orientation, volume);\n"
+    "     nothing written, the message names the broken invariant\n"
+    "  4  output error (cannot write the output file)\n"
+    "  130 interrupted (Ctrl-C); nothing written\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::signal(SIGINT, tetopt_cli::on_sigint);
+  if (argc < 2) {
+    std::fputs(kMainHelp, stderr);
+    return tetopt_cli::kExitUsage;
+  }
+  const std::string cmd = argv[1];
+  std::vector<std::string> args(argv + 2, argv + argc);
+  if (cmd == "-h" || cmd == "--help" || cmd == "help") {
+    std::fputs(kMainHelp, stdout);
+    return 0;
+  }
+  if (cmd == "--version" || cmd == "version") {
+    std::puts("tetopt 0.1.0");
+    return 0;
+  }
+  if (cmd == "quality") return tetopt_cli::cmd_quality(args);
+  if (cmd == "convert") return tetopt_cli::cmd_convert(args);
+  if (cmd == "improve") return tetopt_cli::cmd_improve(args);
+  std::fprintf(stderr, "tetopt: unknown command '%s'\n\n%s", cmd.c_str(), kMainHelp);
+  return tetopt_cli::kExitUsage;
+}

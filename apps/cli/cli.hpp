@@ -1,0 +1,37 @@
+// Shared pieces of the tetopt command line.
+#pragma once
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include "tetopt/mesh.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt_cli {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitUsage = 1;
+inline constexpr int kExitInput = 2;
+inline constexpr int kExitInvariant = 3;
+inline constexpr int kExitOutput = 4;
+inline constexpr int kExitInterrupted = 130;
+
+extern std::atomic<bool> g_interrupted;
+void on_sigint(int);
+
+int cmd_quality(const std::vector<std::string>& args);
+int cmd_convert(const std::vector<std::string>& args);
+int cmd_improve(const std::vector<std::string>& args);
+
+/// Reads IN, normalises orientation, builds topology; prints the error (one
+/// line) and returns false on failure.  Reports inverted/flat tets on stderr.
+bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet);
+
+/// True when stderr is a terminal (progress lines go there).
+bool stderr_is_tty();
+
+/// Parses a number option value; prints a usage error and returns false on failure.
+bool parse_double(const std::string& opt, const std::string& v, double& out);
+bool parse_int(const std::string& opt, const std::string& v, long long& out);
+
+}  // namespace tetopt_cli

@@ -1,0 +1,66 @@
+// tetopt/improve.hpp — the combined improvement driver (Liu et al. 2012, §2).
+//
+// improve() runs on a mesh with topology built and never moves a constrained
+// vertex or removes a constrained face.  Modes:
+//   Smooth    the paper's weighted optimisation-based smoothing alone (§3)
+//   Topo      the quality-driven flip pass alone (§4 operations)
+//   Combined  the paper's loop: Phi = vertices of tets with alpha < gamma;
+//             pick one in seeded random order; if it and all its neighbours
+//             are constrained, topology optimisation (Algorithm 4) on its
+//             all-boundary tets, else weighted smoothing; until Phi is empty
+//             or `iterations` rounds
+//   Best      (default) past the paper: rounds of Algorithm 4, flips
+//             everywhere in the interior, smoothing with both optimisers, with
+//             rising thresholds, until a round improves nothing
+// Every run ends with check_invariants (invariants.hpp); a failure returns
+// ErrorCode::Invariant and the caller must not write the mesh.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+#include "tetopt/mesh.hpp"
+#include "tetopt/quality.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt {
+
+enum class ImproveMode { Smooth, Topo, Combined, Best };
+
+struct ImproveOptions {
+  ImproveMode mode = ImproveMode::Best;
+  bool maxmin_optimizer = false;  ///< Smooth/Combined: Freitag's max-min instead of the paper's scheme
+  double weight = 0.75;           ///< C of eq. (3.4), 0.5 <= C < 1
+  double threshold = 0.3;         ///< gamma: tets with alpha < gamma are poor
+  int iterations = 10;            ///< rounds (sweeps of the loop)
+  uint64_t seed = 0;              ///< visiting order
+  int threads = 1;                ///< worker threads (results are identical for any count)
+  bool check_invariants = true;   ///< prove the promise at the end (recommended)
+};
+
+/// What a run did.
+struct ImproveReport {
+  QualityStats before, after;
+  int64_t smooth_moves = 0, smooth_tried = 0;
+  int64_t flip23 = 0, flip32 = 0, edge_removals = 0, multi_face_removals = 0, flip22 = 0, flip44 = 0;
+  int64_t all_boundary_removed = 0;
+  int rounds = 0;
+  double seconds_total = 0, seconds_smooth = 0, seconds_topo = 0, seconds_check = 0;
+  bool invariants_checked = false, invariants_ok = false;
+  std::string invariant_message;
+};
+
+/// Improves m in place.  Requires build_topology(m); leaves it current.
+/// `interrupted`, when given, is polled between operations; a run that stops
+/// early returns a valid mesh with Status ok and report.rounds so far.
+Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& report, const LogFn& log = {},
+               const std::atomic<bool>* interrupted = nullptr);
+
+const char* mode_name(ImproveMode m);
+
+/// The run report as a JSON object (before/after statistics, operation
+/// counts, time per phase, the invariant check and the options used).
+std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, const std::string& input,
+                           const std::string& output);
+
+}  // namespace tetopt

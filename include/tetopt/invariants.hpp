@@ -1,0 +1,40 @@
+// tetopt/invariants.hpp — the promise, checked.
+//
+// Before improving, capture_invariants() records what must not change: the
+// coordinates of every constrained vertex (bit for bit), the set of
+// constrained faces (boundary, region interfaces, listed triangles) as sorted
+// vertex triples with the refs on either side, and the volume of every region.
+// After improving, check_invariants() proves the result keeps the promise:
+// same vertices at the same bits, the same constrained faces, every tet
+// positive under the exact orient3d, region volumes equal to 1e-9 of the total
+// volume.  Any failure is a bug: the caller must not write the mesh.
+// Cost: O(nt log nt) time, about 12 bytes per constrained face of memory.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tetopt/mesh.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt {
+
+struct InvariantSnapshot {
+  int32_t nv = 0;
+  std::vector<int32_t> vertices;              ///< constrained vertex ids, ascending
+  std::vector<double> coords;                 ///< their coordinates (3 each)
+  std::vector<std::array<int32_t, 5>> faces;  ///< sorted (a,b,c, ref inside, ref outside or -1)
+  std::vector<std::pair<int32_t, double>> region_volume;
+  std::vector<int32_t> tris, tri_ref;         ///< listed triangles as read
+};
+
+/// Requires m's topology (build_topology).
+InvariantSnapshot capture_invariants(const TetMesh& m);
+
+/// Requires m's topology to be current.  Returns Invariant with a message
+/// naming the broken promise ("constrained vertex 17 moved", ...).
+Status check_invariants(const TetMesh& m, const InvariantSnapshot& before);
+
+}  // namespace tetopt

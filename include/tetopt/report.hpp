@@ -1,0 +1,44 @@
+// tetopt/report.hpp — human and machine readable views of a mesh's quality.
+//
+// Text tables in the paper's columns, text histograms, and a per-tet field
+// file (.vtu with cell data) for ParaView.  Pure formatting: nothing here
+// modifies a mesh or prints; callers decide where the text goes.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "tetopt/mesh.hpp"
+#include "tetopt/quality.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt {
+
+/// Multi-line table: counts, worst/mean alpha overall, boundary (kinds 1-4)
+/// and interior, dihedral range, counts below thresholds.
+std::string format_stats_table(const QualityStats& s);
+
+/// Before/after table in the paper's Table 2 columns plus the dihedral range.
+std::string format_before_after(const QualityStats& before, const QualityStats& after, double seconds);
+
+/// Text histograms of alpha (10 bins) and dihedral angles (18 bins of 10 deg).
+std::string format_histograms(const QualityStats& s);
+
+/// A named per-tet array written as VTU cell data.
+struct CellField {
+  std::string name;
+  std::vector<double> values;  ///< nt values
+  bool integer = false;
+};
+
+/// Writes the tets of m (positive orientation) with the given cell fields as
+/// an XML .vtu (base64 binary, Float64 points); atomic (temporary + rename).
+Status write_cell_fields_vtu(const std::string& path, const TetMesh& m, const std::vector<CellField>& fields);
+
+/// The standard quality fields of m: alpha, dihedral_min, dihedral_max,
+/// kind, region.  Requires topology.
+std::vector<CellField> quality_cell_fields(const TetMesh& m);
+
+/// JSON string literal (quotes and escapes).
+std::string json_string(const std::string& s);
+
+}  // namespace tetopt

@@ -1,0 +1,81 @@
+// Boundary-preservation invariants (see invariants.hpp).
+#include "tetopt/invariants.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "tetopt/predicates.hpp"
+
+namespace tetopt {
+
+namespace {
+std::vector<std::array<int32_t, 5>> constrained_faces(const TetMesh& m) {
+  std::vector<std::array<int32_t, 5>> out;
+  for (int32_t t = 0; t < m.nt(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      if (!(m.face_mask[t] >> f & 1)) continue;
+      const int32_t n = m.adj[4 * t + f];
+      // An interior constrained face is seen from both sides: keep it once,
+      // from the side with the smaller (ref, tet) so refs are ordered.
+      if (n >= 0) {
+        const int32_t r0 = m.tet_ref[t], r1 = m.tet_ref[n / 4];
+        if (r0 > r1 || (r0 == r1 && t > n / 4)) continue;
+      }
+      std::array<int32_t, 5> k{};
+      face_key(m, t, f, k.data());
+      k[3] = m.tet_ref[t];
+      k[4] = n >= 0 ? m.tet_ref[n / 4] : -1;
+      out.push_back(k);
+    }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+}  // namespace
+
+InvariantSnapshot capture_invariants(const TetMesh& m) {
+  InvariantSnapshot s;
+  s.nv = m.nv();
+  for (int32_t v = 0; v < m.nv(); ++v)
+    if (m.vert_constrained[v]) {
+      s.vertices.push_back(v);
+      s.coords.insert(s.coords.end(), m.point(v), m.point(v) + 3);
+    }
+  s.faces = constrained_faces(m);
+  s.region_volume = region_volumes(m);
+  s.tris = m.tris;
+  s.tri_ref = m.tri_ref;
+  return s;
+}
+
+Status check_invariants(const TetMesh& m, const InvariantSnapshot& b) {
+  auto fail = [](const std::string& what) { return Status::error(ErrorCode::Invariant, what); };
+  if (m.nv() != b.nv) return fail("vertex count changed from " + std::to_string(b.nv) + " to " + std::to_string(m.nv()));
+  for (size_t i = 0; i < b.vertices.size(); ++i)
+    if (std::memcmp(m.point(b.vertices[i]), &b.coords[3 * i], 3 * sizeof(double)) != 0)
+      return fail("constrained vertex " + std::to_string(b.vertices[i] + 1) + " moved");
+  if (m.tris != b.tris || m.tri_ref != b.tri_ref) return fail("listed boundary triangles or their refs changed");
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    if (orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])) != Sign::Positive)
+      return fail("tetrahedron " + std::to_string(t + 1) + " is inverted or flat");
+  }
+  const auto faces = constrained_faces(m);
+  if (faces != b.faces) {
+    size_t lost = 0;
+    for (const auto& f : b.faces) lost += !std::binary_search(faces.begin(), faces.end(), f);
+    return fail("constrained faces changed: " + std::to_string(lost) + " of " + std::to_string(b.faces.size()) +
+                " lost, " + std::to_string(faces.size() + lost - b.faces.size()) + " new");
+  }
+  const auto vol = region_volumes(m);
+  double total = 0;
+  for (const auto& rv : b.region_volume) total += std::fabs(rv.second);
+  if (vol.size() != b.region_volume.size()) return fail("the set of regions changed");
+  for (size_t i = 0; i < vol.size(); ++i)
+    if (vol[i].first != b.region_volume[i].first ||
+        std::fabs(vol[i].second - b.region_volume[i].second) > 1e-9 * total)
+      return fail("volume of region " + std::to_string(b.region_volume[i].first) + " changed");
+  return Status::success();
+}
+
+}  // namespace tetopt

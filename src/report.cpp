@@ -1,0 +1,168 @@
+// Quality tables, histograms and the per-tet field file (see report.hpp).
+#include "tetopt/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+#include "tetopt/io.hpp"
+
+namespace tetopt {
+
+namespace {
+std::string fmt(const char* f, double x) {
+  if (std::isnan(x)) return "-";
+  char b[64];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+std::string bar(int64_t n, int64_t max, int width) {
+  if (max <= 0 || n <= 0) return "";
+  const int w = std::max<int>(1, static_cast<int>(std::llround(static_cast<double>(n) * width / max)));
+  return std::string(static_cast<size_t>(w), '#');
+}
+}  // namespace
+
+std::string format_stats_table(const QualityStats& s) {
+  std::ostringstream o;
+  o << "  vertices " << s.vertices << ", tets " << s.tets << " (interior " << s.kind_count[0] << ", boundary "
+    << s.boundary_tets << ", all-boundary " << s.all_boundary_tets << "), regions " << s.regions << "\n";
+  o << "                 worst α    mean α\n";
+  o << "  overall      " << fmt("%9.4f", s.alpha_worst) << " " << fmt("%9.4f", s.alpha_mean) << "\n";
+  o << "  boundary     " << fmt("%9.4f", s.alpha_boundary_worst) << " " << fmt("%9.4f", s.alpha_boundary_mean)
+    << "\n";
+  o << "  interior     " << fmt("%9.4f", s.alpha_interior_worst) << " " << fmt("%9.4f", s.alpha_interior_mean)
+    << "\n";
+  o << "  dihedral     " << fmt("%.2f", s.dihedral_min) << "° .. " << fmt("%.2f", s.dihedral_max) << "°\n";
+  o << "  α<0.1: " << s.alpha_below_01 << "  α<0.2: " << s.alpha_below_02 << "  α<0.3: " << s.alpha_below_03
+    << "  inverted/flat: " << s.inverted_or_flat << "  tets with an angle <5°: " << s.dihedral_below_5
+    << "  >175°: " << s.dihedral_above_175 << "\n";
+  return o.str();
+}
+
+std::string format_before_after(const QualityStats& b, const QualityStats& a, double seconds) {
+  std::ostringstream o;
+  o << "                 overall α           boundary α          dihedral (deg)\n";
+  o << "                 worst     mean      worst     mean      min      max\n";
+  auto row = [&](const char* name, const QualityStats& s) {
+    o << "  " << name << fmt("%9.4f", s.alpha_worst) << " " << fmt("%9.4f", s.alpha_mean) << " "
+      << fmt("%9.4f", s.alpha_boundary_worst) << " " << fmt("%9.4f", s.alpha_boundary_mean) << "  "
+      << fmt("%7.2f", s.dihedral_min) << "  " << fmt("%7.2f", s.dihedral_max) << "\n";
+  };
+  row("before       ", b);
+  row("after        ", a);
+  o << "  tets " << b.tets << " -> " << a.tets << ", all-boundary " << b.all_boundary_tets << " -> "
+    << a.all_boundary_tets << ", α<0.1: " << b.alpha_below_01 << " -> " << a.alpha_below_01
+    << ", time " << fmt("%.3f", seconds) << " s\n";
+  return o.str();
+}
+
+std::string format_histograms(const QualityStats& s) {
+  std::ostringstream o;
+  const int64_t ma = *std::max_element(s.alpha_histogram.begin(), s.alpha_histogram.end());
+  o << "  α histogram\n";
+  for (size_t i = 0; i < s.alpha_histogram.size(); ++i) {
+    char b[64];
+    std::snprintf(b, sizeof b, "  %.1f-%.1f %10lld ", i / 10.0, (i + 1) / 10.0,
+                  static_cast<long long>(s.alpha_histogram[i]));
+    o << b << bar(s.alpha_histogram[i], ma, 40) << "\n";
+  }
+  const int64_t md = *std::max_element(s.dihedral_histogram.begin(), s.dihedral_histogram.end());
+  o << "  dihedral angle histogram (degrees)\n";
+  for (size_t i = 0; i < s.dihedral_histogram.size(); ++i) {
+    char b[64];
+    std::snprintf(b, sizeof b, "  %3zu-%3zu %10lld ", i * 10, (i + 1) * 10,
+                  static_cast<long long>(s.dihedral_histogram[i]));
+    o << b << bar(s.dihedral_histogram[i], md, 40) << "\n";
+  }
+  return o.str();
+}
+
+std::string json_string(const std::string& s) {
+  std::string o = "\"";
+  for (unsigned char c : s) {
+    if (c == '"' || c == '\\') { o += '\\'; o += static_cast<char>(c); }
+    else if (c == '\n') o += "\\n";
+    else if (c == '\t') o += "\\t";
+    else if (c < 0x20) { char b[8]; std::snprintf(b, sizeof b, "\\u%04x", c); o += b; }
+    else o += static_cast<char>(c);
+  }
+  return o + "\"";
+}
+
+namespace {
+// RFC 4648 base64.
+std::string base64(const unsigned char* p, size_t n) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string o;
+  o.reserve((n + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < n; i += 3) {
+    const uint32_t v = (p[i] << 16) | (p[i + 1] << 8) | p[i + 2];
+    o += k[v >> 18]; o += k[(v >> 12) & 63]; o += k[(v >> 6) & 63]; o += k[v & 63];
+  }
+  if (i + 1 == n) {
+    const uint32_t v = p[i] << 16;
+    o += k[v >> 18]; o += k[(v >> 12) & 63]; o += "==";
+  } else if (i + 2 == n) {
+    const uint32_t v = (p[i] << 16) | (p[i + 1] << 8);
+    o += k[v >> 18]; o += k[(v >> 12) & 63]; o += k[(v >> 6) & 63]; o += '=';
+  }
+  return o;
+}
+// VTK binary DataArray: UInt64 byte count header followed by the data, all base64.
+template <class T>
+std::string vtk_b64(const std::vector<T>& v) {
+  std::string raw(sizeof(uint64_t) + v.size() * sizeof(T), '\0');
+  const uint64_t nb = v.size() * sizeof(T);
+  std::memcpy(raw.data(), &nb, sizeof nb);
+  if (!v.empty()) std::memcpy(raw.data() + sizeof nb, v.data(), nb);
+  return base64(reinterpret_cast<const unsigned char*>(raw.data()), raw.size());
+}
+}  // namespace
+
+Status write_cell_fields_vtu(const std::string& path, const TetMesh& m, const std::vector<CellField>& fields) {
+  const int32_t nt = m.nt();
+  std::ostringstream o;
+  o << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+       "header_type=\"UInt64\">\n<UnstructuredGrid>\n<Piece NumberOfPoints=\""
+    << m.nv() << "\" NumberOfCells=\"" << nt << "\">\n";
+  o << "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"binary\">\n"
+    << vtk_b64(m.xyz) << "\n</DataArray>\n</Points>\n<Cells>\n";
+  std::vector<int64_t> conn(m.tets.begin(), m.tets.end()), off(nt);
+  for (int32_t t = 0; t < nt; ++t) off[t] = 4 * static_cast<int64_t>(t + 1);
+  std::vector<uint8_t> types(nt, 10);
+  o << "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"binary\">\n" << vtk_b64(conn) << "\n</DataArray>\n";
+  o << "<DataArray type=\"Int64\" Name=\"offsets\" format=\"binary\">\n" << vtk_b64(off) << "\n</DataArray>\n";
+  o << "<DataArray type=\"UInt8\" Name=\"types\" format=\"binary\">\n" << vtk_b64(types) << "\n</DataArray>\n";
+  o << "</Cells>\n<CellData>\n";
+  for (const CellField& f : fields) {
+    if (f.values.size() != static_cast<size_t>(nt))
+      return Status::error(ErrorCode::Invariant, path + ": field " + f.name + " has the wrong size");
+    if (f.integer) {
+      std::vector<int32_t> v(f.values.begin(), f.values.end());
+      o << "<DataArray type=\"Int32\" Name=\"" << f.name << "\" format=\"binary\">\n" << vtk_b64(v)
+        << "\n</DataArray>\n";
+    } else {
+      o << "<DataArray type=\"Float64\" Name=\"" << f.name << "\" format=\"binary\">\n" << vtk_b64(f.values)
+        << "\n</DataArray>\n";
+    }
+  }
+  o << "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+  return write_file_atomic(path, o.str());
+}
+
+std::vector<CellField> quality_cell_fields(const TetMesh& m) {
+  TetQualityFields q = compute_fields(m);
+  std::vector<CellField> f;
+  f.push_back({"alpha", std::move(q.alpha), false});
+  f.push_back({"dihedral_min", std::move(q.dihedral_min), false});
+  f.push_back({"dihedral_max", std::move(q.dihedral_max), false});
+  f.push_back({"kind", std::vector<double>(m.tet_kind.begin(), m.tet_kind.end()), true});
+  f.push_back({"region", std::vector<double>(m.tet_ref.begin(), m.tet_ref.end()), true});
+  return f;
+}
+
+}  // namespace tetopt

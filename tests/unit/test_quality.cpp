@@ -1,0 +1,105 @@
+// Quality measures: values on known tets and invariances.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "tetopt/generate.hpp"
+#include "tetopt/quality.hpp"
+
+using namespace tetopt;
+
+namespace {
+// Regular tet with unit edges, positively oriented.
+const double R0[3] = {0, 0, 0}, R1[3] = {1, 0, 0}, R2[3] = {0.5, std::sqrt(3.0) / 2, 0},
+             R3[3] = {0.5, std::sqrt(3.0) / 6, std::sqrt(2.0 / 3.0)};
+
+void transform(const double in[3], double out[3], double s, double ang, const double tr[3]) {
+  const double c = std::cos(ang), sn = std::sin(ang);
+  // rotation about z then about x
+  const double x = c * in[0] - sn * in[1], y = sn * in[0] + c * in[1], z = in[2];
+  const double y2 = c * y - sn * z, z2 = sn * y + c * z;
+  out[0] = s * x + tr[0];
+  out[1] = s * y2 + tr[1];
+  out[2] = s * z2 + tr[2];
+}
+}  // namespace
+
+TEST(Quality, RegularTet) {
+  EXPECT_NEAR(alpha(R0, R1, R2, R3), 1.0, 1e-14);
+  EXPECT_NEAR(alpha_error(alpha(R0, R1, R2, R3)), 1.0, 1e-14);
+  EXPECT_NEAR(mean_ratio(R0, R1, R2, R3), 1.0, 1e-14);
+  EXPECT_NEAR(radius_ratio(R0, R1, R2, R3), 1.0, 1e-13);
+  double d[6];
+  dihedral_angles(R0, R1, R2, R3, d);
+  for (double x : d) EXPECT_NEAR(x, std::acos(1.0 / 3.0) * 180.0 / M_PI, 1e-10);
+  EXPECT_NEAR(d[0], 70.5288, 1e-4);
+}
+
+TEST(Quality, InvariantUnderSimilarity) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 20; ++trial) {
+    double p[4][3];
+    for (auto& q : p)
+      for (double& x : q) x = u(rng);
+    const double a0 = alpha(p[0], p[1], p[2], p[3]);
+    double d0[6];
+    dihedral_angles(p[0], p[1], p[2], p[3], d0);
+    const double tr[3] = {u(rng) * 100, u(rng) * 100, u(rng) * 100};
+    const double s = std::exp(3 * u(rng)), ang = 3 * u(rng);
+    double q[4][3];
+    for (int i = 0; i < 4; ++i) transform(p[i], q[i], s, ang, tr);
+    EXPECT_NEAR(alpha(q[0], q[1], q[2], q[3]), a0, 1e-9 * std::max(1.0, std::fabs(a0)));
+    double d1[6];
+    dihedral_angles(q[0], q[1], q[2], q[3], d1);
+    for (int e = 0; e < 6; ++e) EXPECT_NEAR(d1[e], d0[e], 1e-7);
+  }
+}
+
+TEST(Quality, FlatAndInverted) {
+  const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, c[3] = {0, 1, 0}, flat[3] = {0.3, 0.3, 0};
+  EXPECT_EQ(alpha(a, b, c, flat), 0.0);
+  EXPECT_TRUE(std::isinf(alpha_error(alpha(a, b, c, flat))));
+  const double d[3] = {0.2, 0.2, 1};
+  EXPECT_GT(alpha(a, b, c, d), 0.0);
+  EXPECT_LT(alpha(b, a, c, d), 0.0);
+  EXPECT_NEAR(alpha(b, a, c, d), -alpha(a, b, c, d), 1e-15);
+  EXPECT_TRUE(std::isinf(alpha_error(alpha(b, a, c, d))));
+  EXPECT_LT(mean_ratio(b, a, c, d), 0.0);
+  // Coincident points: alpha is 0, not NaN.
+  EXPECT_EQ(alpha(a, a, a, a), 0.0);
+}
+
+TEST(Quality, SliverHasSmallAlphaAndExtremeDihedrals) {
+  // Four points near a square's corners, lifted by a tiny height: a sliver.
+  const double a[3] = {0, 0, 0}, b[3] = {1, 0, 1e-3}, c[3] = {1, 1, 0}, d[3] = {0, 1, 1e-3};
+  const double q = std::fabs(alpha(a, b, c, d));
+  EXPECT_LT(q, 0.01);
+  double dh[6];
+  dihedral_angles(a, b, c, d, dh);
+  double mn = 180, mx = 0;
+  for (double x : dh) { mn = std::min(mn, x); mx = std::max(mx, x); }
+  EXPECT_LT(mn, 1.0);
+  EXPECT_GT(mx, 179.0);
+}
+
+TEST(Quality, StatsOnBoxMesh) {
+  TetMesh m = make_box_mesh({.nx = 3, .ny = 3, .nz = 3, .regions = 2});
+  ASSERT_TRUE(build_topology(m).ok());
+  const QualityStats s = compute_stats(m);
+  EXPECT_EQ(s.tets, m.nt());
+  EXPECT_EQ(s.vertices, m.nv());
+  EXPECT_EQ(s.regions, 2);
+  EXPECT_EQ(s.boundary_tets + s.kind_count[0], s.tets);
+  EXPECT_GT(s.alpha_worst, 0.5);  // Kuhn tets are all similar (alpha ~0.717)
+  EXPECT_NEAR(s.alpha_worst, s.alpha_mean, 1e-12);
+  int64_t h = 0;
+  for (auto x : s.alpha_histogram) h += x;
+  EXPECT_EQ(h, s.tets);
+  int64_t hd = 0;
+  for (auto x : s.dihedral_histogram) hd += x;
+  EXPECT_EQ(hd, 6 * s.tets);
+  EXPECT_NEAR(s.dihedral_min, 45.0, 1e-9);
+  EXPECT_NEAR(s.dihedral_max, 90.0, 1e-9);
+}
