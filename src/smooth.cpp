@@ -1,0 +1,634 @@
+// Optimisation-based smoothing with the paper's boundary weight C
+// (Liu, Dai, Dong, Tan 2012, §3; Freitag, Jones, Plassmann 1995; Freitag &
+// Ollivier-Gooch 1997).  See smooth.hpp for the model and the commit rule.
+#include "tetopt/smooth.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "tetopt/conventions.hpp"
+#include "tetopt/predicates.hpp"
+#include "tetopt/quality.hpp"
+
+namespace tetopt {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+const double kTwoSqrt6 = 2.0 * std::sqrt(6.0);
+// Golden-section fractions of Alg. 2 (0.382 / 0.618 in the paper).
+const double kGoldHi = (std::sqrt(5.0) - 1.0) / 2.0;
+const double kGoldLo = 1.0 - kGoldHi;
+
+inline void sub(const double* a, const double* b, double* r) {
+  r[0] = a[0] - b[0]; r[1] = a[1] - b[1]; r[2] = a[2] - b[2];
+}
+inline void cross(const double* a, const double* b, double* r) {
+  r[0] = a[1] * b[2] - a[2] * b[1];
+  r[1] = a[2] * b[0] - a[0] * b[2];
+  r[2] = a[0] * b[1] - a[1] * b[0];
+}
+inline double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline double norm(const double* a) { return std::sqrt(dot(a, a)); }
+
+// One star tet seen from its free vertex x as (x, a, b, c), positively
+// oriented: (a, b, c) = kFaceVertex[slot] is the face opposite x, whose
+// outward normal points away from x, so det(a-x, b-x, c-x) > 0.
+// Coordinates are relative to the star's origin (the vertex's position when
+// the star was gathered), which keeps the arithmetic well conditioned.
+struct LocalTet {
+  double a[3], b[3], c[3];
+  double n0[3];   // (b-a) x (c-a): |n0| = twice the area of the face opposite x
+  double n0len;
+  double lfix2;   // longest squared edge not containing x
+  double w;       // weight of eq. 3.4
+  int32_t ia, ib, ic;  // mesh ids of a, b, c (exact check)
+  int32_t t;
+  int32_t slot;   // local index of the free vertex in tet t
+};
+
+void make_local(const TetMesh& m, int32_t t, int slot, const double* origin, double w, LocalTet& L) {
+  const int32_t* tv = m.tet(t);
+  L.t = t;
+  L.slot = slot;
+  L.ia = tv[kFaceVertex[slot][0]];
+  L.ib = tv[kFaceVertex[slot][1]];
+  L.ic = tv[kFaceVertex[slot][2]];
+  sub(m.point(L.ia), origin, L.a);
+  sub(m.point(L.ib), origin, L.b);
+  sub(m.point(L.ic), origin, L.c);
+  double ab[3], ac[3], bc[3];
+  sub(L.b, L.a, ab);
+  sub(L.c, L.a, ac);
+  sub(L.c, L.b, bc);
+  cross(ab, ac, L.n0);
+  L.n0len = norm(L.n0);
+  L.lfix2 = std::max({dot(ab, ab), dot(ac, ac), dot(bc, bc)});
+  L.w = w;
+}
+
+// e(T) = A*L/(6 sqrt6 V) = A2*L/(2 sqrt6 D) with A2 = twice the total face
+// area and D = 6V, at the free vertex position x (relative coordinates).  When
+// g is given, also the gradient with the longest edge held:
+//   grad e = e * (grad A2 / A2 + grad L / L - grad D / D)
+//   grad D = -n0 (constant);  grad |n| for a face (x, p, q) with
+//   n = (p-x) x (q-x) is (p-q) x n/|n|;  grad L = (x - y)/L when the
+//   longest edge is x-y, else 0.
+inline double local_error(const LocalTet& T, const double* x, double* g) {
+  double u[3], w[3], z[3];
+  sub(T.a, x, u);
+  sub(T.b, x, w);
+  sub(T.c, x, z);
+  double n1[3], n2[3], n3[3];
+  cross(u, w, n1);
+  cross(w, z, n2);
+  cross(z, u, n3);
+  const double D = dot(u, n2);
+  if (!(D > 0)) {
+    if (g) g[0] = g[1] = g[2] = 0;
+    return kInf;
+  }
+  const double s1 = norm(n1), s2 = norm(n2), s3 = norm(n3);
+  const double A2 = T.n0len + s1 + s2 + s3;
+  const double lu = dot(u, u), lw = dot(w, w), lz = dot(z, z);
+  double L2 = T.lfix2;
+  const double* held = nullptr;
+  if (lu > L2) { L2 = lu; held = u; }
+  if (lw > L2) { L2 = lw; held = w; }
+  if (lz > L2) { L2 = lz; held = z; }
+  const double e = A2 * std::sqrt(L2) / (kTwoSqrt6 * D);
+  if (g) {
+    double dA[3] = {0, 0, 0};
+    auto face = [&](const double* p, const double* q, const double* n, double s) {
+      if (!(s > 0)) return;
+      double pq[3], r[3];
+      sub(p, q, pq);
+      cross(pq, n, r);
+      dA[0] += r[0] / s; dA[1] += r[1] / s; dA[2] += r[2] / s;
+    };
+    face(u, w, n1, s1);
+    face(w, z, n2, s2);
+    face(z, u, n3, s3);
+    for (int k = 0; k < 3; ++k) g[k] = e * (dA[k] / A2 + T.n0[k] / D);
+    if (held) {
+      // L = |x - y| = |held|, held = y - x:  grad L / L = -held / L^2
+      for (int k = 0; k < 3; ++k) g[k] -= e * held[k] / L2;
+    }
+  }
+  return e;
+}
+
+// Neumaier-compensated sum (deterministic, accurate over millions of tets).
+struct Sum {
+  double s = 0, c = 0;
+  void add(double x) {
+    const double t = s + x;
+    c += std::fabs(s) >= std::fabs(x) ? (s - t) + x : (x - t) + s;
+    s = t;
+  }
+  double value() const { return s + c; }
+};
+
+inline double clamp_weight(double w) {
+  if (!(w >= 0.5)) return 0.5;
+  if (w > 1.0) return 1.0;
+  return w;
+}
+inline double tet_weight(const TetMesh& m, int32_t t, double C) { return m.tet_kind[t] > 0 ? C : 1.0 - C; }
+
+inline int slot_of(const TetMesh& m, int32_t t, int32_t v) {
+  const int32_t* tv = m.tet(t);
+  for (int i = 0; i < 4; ++i)
+    if (tv[i] == v) return i;
+  return -1;
+}
+
+// Per-thread scratch, grown on demand and never shrunk: no allocation per
+// vertex solve once it has seen the largest star.
+struct Scratch {
+  std::vector<LocalTet> tets;
+  std::vector<double> alpha, grad;  // MaxMin: per-tet alpha and gradient (3 each)
+  double origin[3] = {0, 0, 0};
+  double mean_len = 0;
+  int n = 0;
+};
+
+void gather(const TetMesh& m, int32_t v, double C, Scratch& s) {
+  const int32_t* b = m.star_begin(v);
+  const int n = static_cast<int>(m.star_end(v) - b);
+  if (static_cast<int>(s.tets.size()) < n) s.tets.resize(n);
+  s.n = n;
+  const double* o = m.point(v);
+  s.origin[0] = o[0]; s.origin[1] = o[1]; s.origin[2] = o[2];
+  double len = 0;
+  for (int i = 0; i < n; ++i) {
+    const int32_t t = b[i];
+    LocalTet& L = s.tets[i];
+    make_local(m, t, slot_of(m, t, v), s.origin, tet_weight(m, t, C), L);
+    len += norm(L.a) + norm(L.b) + norm(L.c);
+  }
+  s.mean_len = n ? len / (3.0 * n) : 0.0;
+}
+
+double star_f(const Scratch& s, const double* x) {
+  double f = 0;
+  for (int i = 0; i < s.n; ++i) {
+    const LocalTet& T = s.tets[i];
+    const double e = local_error(T, x, nullptr);
+    if (e == kInf) return kInf;
+    f += T.w * e;
+  }
+  return f;
+}
+
+double star_f_grad(const Scratch& s, const double* x, double* g) {
+  double f = 0;
+  g[0] = g[1] = g[2] = 0;
+  for (int i = 0; i < s.n; ++i) {
+    const LocalTet& T = s.tets[i];
+    double ge[3];
+    const double e = local_error(T, x, ge);
+    if (e == kInf) return kInf;
+    f += T.w * e;
+    g[0] += T.w * ge[0]; g[1] += T.w * ge[1]; g[2] += T.w * ge[2];
+  }
+  return f;
+}
+
+// Worst alpha of the star at relative position x (1 / largest e).
+double star_worst_alpha(const Scratch& s, const double* x) {
+  double emax = 0;
+  for (int i = 0; i < s.n; ++i) {
+    const double e = local_error(s.tets[i], x, nullptr);
+    if (e == kInf) return 0.0;
+    emax = std::max(emax, e);
+  }
+  return emax > 0 ? 1.0 / emax : 0.0;
+}
+
+// Objective and worst alpha of v's star with v placed at absolute position p,
+// evaluated exactly as vertex_objective does once v sits at p (coordinates
+// relative to p) and alpha exactly as compute_stats does (tetopt::alpha on the
+// tet's own vertex order).
+void star_at(const TetMesh& m, int32_t v, const double* p, double C, double* f_out, double* worst_out) {
+  double f = 0, worst = kInf;
+  for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+    const int32_t t = *it;
+    const int slot = slot_of(m, t, v);
+    if (f_out) {
+      LocalTet L;
+      make_local(m, t, slot, p, tet_weight(m, t, C), L);
+      const double zero[3] = {0, 0, 0};
+      const double e = local_error(L, zero, nullptr);
+      f = (e == kInf || f == kInf) ? kInf : f + L.w * e;
+    }
+    if (worst_out) {
+      const int32_t* tv = m.tet(t);
+      const double* q[4];
+      for (int k = 0; k < 4; ++k) q[k] = k == slot ? p : m.point(tv[k]);
+      worst = std::min(worst, alpha(q[0], q[1], q[2], q[3]));
+    }
+  }
+  if (f_out) *f_out = f;
+  if (worst_out) *worst_out = worst;
+}
+
+bool star_positive_at(const TetMesh& m, const Scratch& s, const double* p) {
+  for (int i = 0; i < s.n; ++i) {
+    const LocalTet& T = s.tets[i];
+    if (orient3d(p, m.point(T.ia), m.point(T.ib), m.point(T.ic)) != Sign::Positive) return false;
+  }
+  return true;
+}
+
+// ---- Paper optimiser: steepest descent + Alg. 3 bracketing + Alg. 2 golden section ----
+
+struct LineFn {
+  const Scratch& s;
+  const double* x;
+  const double* d;
+  double operator()(double t) const {
+    const double y[3] = {x[0] + t * d[0], x[1] + t * d[1], x[2] + t * d[2]};
+    return star_f(s, y);
+  }
+};
+
+// Advance-retreat interval search (paper Alg. 3): finds a < tb < c with
+// phi(tb) < phi(a) and phi(tb) <= phi(c).  Starting from t = h, it retreats
+// (shrinks h by 4) while phi(h) >= phi(0), otherwise advances with doubling
+// steps until phi stops decreasing.  False when no t > 0 improves on phi(0).
+bool bracket(const LineFn& phi, double f0, double h, double& a, double& c, double& tb, double& fb) {
+  double t1 = h, f1 = phi(t1);
+  if (!(f1 < f0)) {
+    double prev = t1;
+    for (int k = 0; k < 24 && !(f1 < f0); ++k) {
+      prev = t1;
+      t1 *= 0.25;
+      f1 = phi(t1);
+    }
+    if (!(f1 < f0)) return false;
+    a = 0; c = prev; tb = t1; fb = f1;
+    return true;
+  }
+  double t0 = 0;
+  double step = h;
+  for (int k = 0; k < 40; ++k) {
+    step *= 2;
+    const double t2 = t1 + step, f2 = phi(t2);
+    if (!(f2 < f1)) {
+      a = t0; c = t2; tb = t1; fb = f1;
+      return true;
+    }
+    t0 = t1; t1 = t2; f1 = f2;
+  }
+  a = t0; c = t1; tb = t1; fb = f1;
+  return true;
+}
+
+// Golden-section search on [a, c] (paper Alg. 2) to |mu - nu| < eps.  Ties
+// (including two infinite values: both points beyond an inversion) move the
+// interval left, toward the known finite value.  Returns the best point seen,
+// starting from the bracket's (tb, fb).
+void golden(const LineFn& phi, double a, double c, double eps, double& tb, double& fb) {
+  double mu = a + kGoldLo * (c - a), nu = a + kGoldHi * (c - a);
+  double fmu = phi(mu), fnu = phi(nu);
+  for (int i = 0; i < 200 && std::fabs(nu - mu) >= eps; ++i) {
+    if (!(fmu > fnu)) {
+      if (fmu < fb) { fb = fmu; tb = mu; }
+      c = nu; nu = mu; fnu = fmu;
+      mu = a + kGoldLo * (c - a);
+      fmu = phi(mu);
+    } else {
+      if (fnu < fb) { fb = fnu; tb = nu; }
+      a = mu; mu = nu; fmu = fnu;
+      nu = a + kGoldHi * (c - a);
+      fnu = phi(nu);
+    }
+  }
+  const double lam = 0.5 * (mu + nu), fl = phi(lam);
+  if (fmu < fb) { fb = fmu; tb = mu; }
+  if (fnu < fb) { fb = fnu; tb = nu; }
+  if (fl < fb) { fb = fl; tb = lam; }
+}
+
+// Minimises f_v from x = 0; leaves the best position in x.  False when the
+// star is invalid at the start.
+bool optimize_paper(const Scratch& s, const SmoothOptions& o, double* x) {
+  x[0] = x[1] = x[2] = 0;
+  double g[3];
+  double f = star_f_grad(s, x, g);
+  if (!std::isfinite(f)) return false;
+  const double eps = o.line_tol * s.mean_len;
+  double h = 0.05 * s.mean_len;
+  for (int step = 0; step < o.max_steps; ++step) {
+    const double gn = norm(g);
+    if (!(gn > 0) || !std::isfinite(gn)) break;
+    const double d[3] = {-g[0] / gn, -g[1] / gn, -g[2] / gn};
+    LineFn phi{s, x, d};
+    double a, c, tb, fb;
+    if (!bracket(phi, f, h, a, c, tb, fb)) break;
+    golden(phi, a, c, eps, tb, fb);
+    if (!(fb < f)) break;
+    for (int k = 0; k < 3; ++k) x[k] += tb * d[k];
+    const double gain = f - fb;
+    h = std::max(0.5 * tb, 1e-3 * s.mean_len);
+    if (gain < o.step_tol * fb) break;
+    f = star_f_grad(s, x, g);
+  }
+  return true;
+}
+
+// ---- MaxMin optimiser (Freitag et al.) ----
+
+// Minimum-norm point of the convex hull of k <= 8 vectors G[3i..3i+2]: the
+// steepest direction d that raises every active alpha at rate >= |d|^2.  It
+// lies on a face of at most three of them (Caratheodory in R^3) and is the one
+// candidate with g_j . d >= |d|^2 for all j.  Zero when the origin is in the
+// hull (x is stationary for the max-min problem).
+void min_norm_point(const double* G, int k, double* d) {
+  double best = kInf;
+  d[0] = d[1] = d[2] = 0;
+  auto consider = [&](const double* p) {
+    const double pp = dot(p, p);
+    if (!(pp < best)) return;
+    const double tol = 1e-12 * std::max(pp, 1e-300);
+    for (int j = 0; j < k; ++j)
+      if (dot(G + 3 * j, p) < pp - tol) return;
+    best = pp;
+    d[0] = p[0]; d[1] = p[1]; d[2] = p[2];
+  };
+  for (int i = 0; i < k; ++i) consider(G + 3 * i);
+  for (int i = 0; i < k; ++i)
+    for (int j = i + 1; j < k; ++j) {
+      const double* gi = G + 3 * i;
+      double e[3];
+      sub(G + 3 * j, gi, e);
+      const double ee = dot(e, e);
+      if (!(ee > 0)) continue;
+      const double t = -dot(gi, e) / ee;
+      if (!(t > 0 && t < 1)) continue;
+      const double p[3] = {gi[0] + t * e[0], gi[1] + t * e[1], gi[2] + t * e[2]};
+      consider(p);
+    }
+  for (int i = 0; i < k; ++i)
+    for (int j = i + 1; j < k; ++j)
+      for (int l = j + 1; l < k; ++l) {
+        const double* gi = G + 3 * i;
+        double e1[3], e2[3];
+        sub(G + 3 * j, gi, e1);
+        sub(G + 3 * l, gi, e2);
+        // minimise |gi + s e1 + t e2|^2: normal equations
+        const double a11 = dot(e1, e1), a12 = dot(e1, e2), a22 = dot(e2, e2);
+        const double b1 = -dot(gi, e1), b2 = -dot(gi, e2);
+        const double det = a11 * a22 - a12 * a12;
+        if (!(det > 1e-14 * a11 * a22)) continue;
+        const double sc = (b1 * a22 - b2 * a12) / det, tc = (a11 * b2 - a12 * b1) / det;
+        if (!(sc > 0 && tc > 0 && sc + tc < 1)) continue;
+        const double p[3] = {gi[0] + sc * e1[0] + tc * e2[0], gi[1] + sc * e1[1] + tc * e2[1],
+                             gi[2] + sc * e1[2] + tc * e2[2]};
+        consider(p);
+      }
+  if (best == kInf) d[0] = d[1] = d[2] = 0;
+}
+
+bool optimize_maxmin(Scratch& s, const SmoothOptions& o, double* x) {
+  x[0] = x[1] = x[2] = 0;
+  const int n = s.n;
+  if (static_cast<int>(s.alpha.size()) < n) {
+    s.alpha.resize(n);
+    s.grad.resize(3 * static_cast<size_t>(n));
+  }
+  constexpr int kMaxActive = 8;
+  for (int step = 0; step < o.max_steps; ++step) {
+    double amin = kInf;
+    for (int i = 0; i < n; ++i) {
+      double ge[3];
+      const double e = local_error(s.tets[i], x, ge);
+      if (e == kInf) return step > 0;
+      const double a = 1.0 / e, f = -a * a;  // grad alpha = -grad e / e^2
+      s.alpha[i] = a;
+      s.grad[3 * i] = f * ge[0]; s.grad[3 * i + 1] = f * ge[1]; s.grad[3 * i + 2] = f * ge[2];
+      amin = std::min(amin, a);
+    }
+    // Active set: the (at most kMaxActive) smallest alphas within active_tol.
+    int act[kMaxActive];
+    int k = 0;
+    const double lim = amin * (1.0 + o.active_tol);
+    for (int i = 0; i < n; ++i) {
+      if (s.alpha[i] > lim) continue;
+      if (k < kMaxActive) {
+        act[k++] = i;
+      } else {
+        int worst = 0;
+        for (int j = 1; j < k; ++j)
+          if (s.alpha[act[j]] > s.alpha[act[worst]]) worst = j;
+        if (s.alpha[i] < s.alpha[act[worst]]) act[worst] = i;
+      }
+    }
+    double G[3 * kMaxActive];
+    for (int j = 0; j < k; ++j)
+      for (int c = 0; c < 3; ++c) G[3 * j + c] = s.grad[3 * act[j] + c];
+    double d[3];
+    min_norm_point(G, k, d);
+    const double r = dot(d, d);
+    if (!(r > 0)) break;
+    // Predicted step: where the linear model of an inactive tet meets the
+    // rising worst (Freitag et al. 1995), capped to a quarter of the star size.
+    double sstep = 0.25 * s.mean_len / std::sqrt(r);
+    for (int i = 0; i < n; ++i) {
+      const double gd = dot(&s.grad[3 * i], d);
+      if (gd < r && s.alpha[i] > lim) sstep = std::min(sstep, (s.alpha[i] - amin) / (r - gd));
+    }
+    bool moved = false;
+    double anew = amin;
+    for (int h = 0; h < 12; ++h, sstep *= 0.5) {
+      const double y[3] = {x[0] + sstep * d[0], x[1] + sstep * d[1], x[2] + sstep * d[2]};
+      anew = star_worst_alpha(s, y);
+      if (anew > amin) {
+        x[0] = y[0]; x[1] = y[1]; x[2] = y[2];
+        moved = true;
+        break;
+      }
+    }
+    if (!moved || anew - amin < o.step_tol * amin) break;
+  }
+  return true;
+}
+
+}  // namespace
+
+double tet_error_and_gradient(const double* const p[4], int which, double grad[3]) {
+  const double* x = p[which];
+  LocalTet L;
+  sub(p[kFaceVertex[which][0]], x, L.a);
+  sub(p[kFaceVertex[which][1]], x, L.b);
+  sub(p[kFaceVertex[which][2]], x, L.c);
+  double ab[3], ac[3], bc[3];
+  sub(L.b, L.a, ab);
+  sub(L.c, L.a, ac);
+  sub(L.c, L.b, bc);
+  cross(ab, ac, L.n0);
+  L.n0len = norm(L.n0);
+  L.lfix2 = std::max({dot(ab, ab), dot(ac, ac), dot(bc, bc)});
+  L.w = 1;
+  const double zero[3] = {0, 0, 0};
+  return local_error(L, zero, grad);
+}
+
+double vertex_objective(const TetMesh& m, int32_t v, double weight) {
+  double f = 0;
+  star_at(m, v, m.point(v), clamp_weight(weight), &f, nullptr);
+  return f;
+}
+
+double mesh_objective(const TetMesh& m, double weight) {
+  const double C = clamp_weight(weight);
+  Sum s;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    LocalTet L;
+    const double* origin = m.point(m.tet(t)[0]);
+    make_local(m, t, 0, origin, tet_weight(m, t, C), L);
+    const double zero[3] = {0, 0, 0};
+    const double e = local_error(L, zero, nullptr);
+    if (e == kInf) return kInf;
+    s.add(L.w * e);
+  }
+  return s.value();
+}
+
+SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o) {
+  if (m.vert_constrained[v] || m.star_begin(v) == m.star_end(v)) return SmoothResult::BoundaryLocked;
+  thread_local Scratch s;
+  const double C = clamp_weight(o.weight);
+  gather(m, v, C, s);
+  const bool maxmin = o.optimizer == Optimizer::MaxMin;
+  double x[3];
+  const bool ok = maxmin ? optimize_maxmin(s, o, x) : optimize_paper(s, o, x);
+  if (!ok) return SmoothResult::Inverted;
+
+  double f_old = 0, worst_old = 0;
+  star_at(m, v, s.origin, C, maxmin ? nullptr : &f_old, &worst_old);
+  bool inverted = false;
+  for (int attempt = 0; attempt < 5; ++attempt, x[0] *= 0.5, x[1] *= 0.5, x[2] *= 0.5) {
+    const double p[3] = {s.origin[0] + x[0], s.origin[1] + x[1], s.origin[2] + x[2]};
+    if (p[0] == s.origin[0] && p[1] == s.origin[1] && p[2] == s.origin[2]) break;
+    if (!star_positive_at(m, s, p)) {
+      inverted = true;
+      continue;
+    }
+    double f_new = 0, worst_new = 0;
+    star_at(m, v, p, C, maxmin ? nullptr : &f_new, &worst_new);
+    bool accept;
+    if (maxmin) {
+      accept = worst_old > 0 ? worst_new >= worst_old + o.margin * worst_old : worst_new > worst_old;
+    } else {
+      accept = std::isfinite(f_new) && f_new <= f_old - o.margin * f_old;
+      if (accept && o.protect_worst) accept = worst_new >= worst_old;
+    }
+    if (!accept) continue;
+    double* q = m.point(v);
+    q[0] = p[0]; q[1] = p[1]; q[2] = p[2];
+    return SmoothResult::Applied;
+  }
+  return inverted ? SmoothResult::Inverted : SmoothResult::NotImproved;
+}
+
+SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log) {
+  const auto t_start = std::chrono::steady_clock::now();
+  SmoothStats st;
+  const int32_t nv = m.nv(), nt = m.nt();
+  const double C = clamp_weight(o.weight);
+  st.objective_before = mesh_objective(m, C);
+
+  std::vector<double> qa(nt);
+  double worst = kInf;
+  for (int32_t t = 0; t < nt; ++t) {
+    qa[t] = tet_alpha(m, t);
+    worst = std::min(worst, qa[t]);
+  }
+  st.worst_alpha_before = worst;
+
+  std::vector<uint32_t> stamp(nv, 0);
+  uint32_t epoch = 0;
+  std::vector<int32_t> active, moved;
+  std::mt19937_64 rng(o.seed);
+
+  auto is_free = [&](int32_t u) { return !m.vert_constrained[u] && m.star_begin(u) != m.star_end(u); };
+  auto touches_poor = [&](int32_t u) {
+    for (const int32_t* it = m.star_begin(u); it != m.star_end(u); ++it)
+      if (qa[*it] < o.threshold) return true;
+    return false;
+  };
+
+  for (int phase = 0; phase < (o.all_vertices ? 2 : 1); ++phase) {
+    active.clear();
+    ++epoch;
+    if (phase == 0) {
+      for (int32_t t = 0; t < nt; ++t) {
+        if (!(qa[t] < o.threshold)) continue;
+        const int32_t* tv = m.tet(t);
+        for (int k = 0; k < 4; ++k)
+          if (stamp[tv[k]] != epoch && is_free(tv[k])) {
+            stamp[tv[k]] = epoch;
+            active.push_back(tv[k]);
+          }
+      }
+      std::sort(active.begin(), active.end());
+      st.initial_active = static_cast<int64_t>(active.size());
+    } else {
+      for (int32_t u = 0; u < nv; ++u)
+        if (is_free(u)) active.push_back(u);
+    }
+    for (int sweep = 0; sweep < o.iterations && !active.empty(); ++sweep) {
+      // Fisher-Yates with the engine's raw output (portable, unlike std::shuffle).
+      for (size_t i = active.size(); i > 1; --i) std::swap(active[i - 1], active[rng() % i]);
+      moved.clear();
+      for (const int32_t v : active) {
+        const SmoothResult r = smooth_vertex(m, v, o);
+        st.moves_tried++;
+        if (r == SmoothResult::Applied) {
+          st.moves_applied++;
+          moved.push_back(v);
+          for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) qa[*it] = tet_alpha(m, *it);
+        } else if (r == SmoothResult::NotImproved) {
+          st.not_improved++;
+        } else if (r == SmoothResult::Inverted) {
+          st.rejected_inverted++;
+        }
+      }
+      st.sweeps++;
+      if (log) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "smooth phase %d sweep %d: %zu active, %zu moved, worst alpha %.6g",
+                      phase + 1, sweep + 1, active.size(), moved.size(),
+                      *std::min_element(qa.begin(), qa.end()));
+        log(LogLevel::Progress, buf);
+      }
+      if (moved.empty()) break;
+      active.clear();
+      ++epoch;
+      for (const int32_t v : moved)
+        for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+          const int32_t* tv = m.tet(*it);
+          for (int k = 0; k < 4; ++k) {
+            const int32_t u = tv[k];
+            if (stamp[u] == epoch) continue;
+            stamp[u] = epoch;
+            if (is_free(u) && (phase == 1 || touches_poor(u))) active.push_back(u);
+          }
+        }
+      std::sort(active.begin(), active.end());
+    }
+  }
+  st.worst_alpha_after = nt ? *std::min_element(qa.begin(), qa.end()) : 0.0;
+  st.objective_after = mesh_objective(m, C);
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return st;
+}
+
+}  // namespace tetopt
