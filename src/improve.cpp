@@ -2,18 +2,178 @@
 #include "tetopt/improve.hpp"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 
 #include "tetopt/invariants.hpp"
 #include "tetopt/report.hpp"
+#include "tetopt/smooth.hpp"
+#include "tetopt/topo.hpp"
 
 namespace tetopt {
 
 namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+double worst_alpha(const TetMesh& m) {
+  double w = INFINITY;
+  for (int32_t t = 0; t < m.nt(); ++t) w = std::min(w, tet_alpha(m, t));
+  return w;
+}
+
+int64_t count_below(const TetMesh& m, double gamma) {
+  int64_t n = 0;
+  for (int32_t t = 0; t < m.nt(); ++t) n += tet_alpha(m, t) < gamma;
+  return n;
+}
+
+// Runs the phases of one mode and accumulates counters and times in rep.
+class Driver {
+ public:
+  Driver(TetMesh& m, const ImproveOptions& o, ImproveReport& r, const LogFn& log,
+         const std::atomic<bool>* interrupted)
+      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted) {}
+
+  bool stopped() const { return stop_ && stop_->load(); }
+
+  void info(const std::string& s) const {
+    if (log_) log_(LogLevel::Info, s);
+  }
+  void progress(const std::string& s) const {
+    if (log_) log_(LogLevel::Progress, s);
+  }
+
+  SmoothOptions smooth_opts(double gamma, int sweeps, bool maxmin, uint64_t seed) const {
+    SmoothOptions so;
+    so.weight = o_.weight;
+    so.threshold = gamma;
+    so.iterations = sweeps;
+    so.optimizer = maxmin ? Optimizer::MaxMin : Optimizer::Paper;
+    so.seed = seed;
+    return so;
+  }
+
+  void smooth(const SmoothOptions& so) {
+    const auto t = Clock::now();
+    SmoothStats st = smooth_pass(m_, so, log_);
+    r_.smooth_moves += st.moves_applied;
+    r_.smooth_tried += st.moves_tried;
+    r_.seconds_smooth += since(t);
+  }
+
+  void add(const TopoStats& st, double seconds) {
+    r_.flip23 += st.flip23;
+    r_.flip32 += st.flip32;
+    r_.flip44 += st.flip44;
+    r_.flip22 += st.flip22;
+    r_.edge_removals += st.edge_removals;
+    r_.multi_face_removals += st.multi_face_removals;
+    r_.all_boundary_removed += st.all_boundary_removed;
+    r_.seconds_topo += seconds;
+  }
+
+  Status algorithm4(bool strict, double gamma) {
+    const auto t = Clock::now();
+    TopoOptions to;
+    to.must_improve = strict;
+    to.worsen_bound = strict ? 0.0 : 0.5;
+    to.quality_threshold = gamma;
+    to.passes = 3;
+    TopoStats st = remove_all_boundary_tets(m_, to, log_);
+    add(st, since(t));
+    return st.status;
+  }
+
+  Status flips(double gamma) {
+    const auto t = Clock::now();
+    TopoOptions to;
+    to.quality_threshold = gamma;
+    to.passes = 3;
+    TopoStats st = flip_pass(m_, to, log_);
+    add(st, since(t));
+    return st.status;
+  }
+
+  Status run() {
+    switch (o_.mode) {
+      case ImproveMode::Smooth:
+        smooth(smooth_opts(o_.threshold, std::max(1, o_.iterations), o_.maxmin_optimizer, o_.seed));
+        r_.rounds = 1;
+        return Status::success();
+      case ImproveMode::Topo:
+        r_.rounds = 1;
+        return flips(o_.threshold);
+      case ImproveMode::Combined: return combined();
+      case ImproveMode::Best: return best();
+    }
+    return Status::success();
+  }
+
+  // The paper's loop (§2), organised in rounds: the vertices of poor tets
+  // (Phi) whose whole neighbourhood is constrained can only be helped through
+  // their all-boundary tets, so each round first runs Algorithm 4 on the poor
+  // all-boundary tets (transformations may worsen quality within a bound, as
+  // the paper allows, because the smoothing that follows repairs them), then
+  // one smoothing sweep over the remaining vertices of Phi.  Rounds repeat
+  // until Phi is empty, nothing changes, or `iterations` rounds.
+  Status combined() {
+    for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
+      const int64_t poor = count_below(m_, o_.threshold);
+      progress("round " + std::to_string(round + 1) + ": " + std::to_string(poor) + " tets with alpha < " +
+               std::to_string(o_.threshold));
+      if (poor == 0) break;
+      const int64_t before_ops = ops();
+      if (Status s = algorithm4(/*strict=*/round > 0, o_.threshold); !s) return s;
+      const int64_t before_moves = r_.smooth_moves;
+      smooth(smooth_opts(o_.threshold, 1, o_.maxmin_optimizer, o_.seed + static_cast<uint64_t>(round)));
+      r_.rounds = round + 1;
+      if (ops() == before_ops && r_.smooth_moves == before_moves) break;
+    }
+    return Status::success();
+  }
+
+  // Past the paper: attack the worst tets until a round improves nothing.
+  // Each round: Algorithm 4 on all-boundary tets, quality-driven flips
+  // everywhere below gamma, then smoothing with the paper's optimiser and with
+  // the max-min optimiser (which directly raises the worst alpha of a star);
+  // gamma rises from the user's threshold as the poor tets disappear.
+  Status best() {
+    double gamma = o_.threshold;
+    double prev_worst = worst_alpha(m_);
+    int stale = 0;
+    for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
+      progress("round " + std::to_string(round + 1) + ": worst alpha " + std::to_string(prev_worst));
+      if (Status s = algorithm4(true, gamma); !s) return s;
+      if (Status s = flips(gamma); !s) return s;
+      smooth(smooth_opts(gamma, 3, false, o_.seed + static_cast<uint64_t>(round)));
+      smooth(smooth_opts(gamma, 3, true, o_.seed + static_cast<uint64_t>(round)));
+      r_.rounds = round + 1;
+      const double w = worst_alpha(m_);
+      if (w <= prev_worst + 1e-6) {
+        if (++stale >= 2) break;
+        gamma = std::min(0.6, gamma + 0.1);
+      } else {
+        stale = 0;
+      }
+      prev_worst = std::max(prev_worst, w);
+    }
+    return Status::success();
+  }
+
+  int64_t ops() const {
+    return r_.flip23 + r_.flip32 + r_.flip44 + r_.flip22 + r_.edge_removals + r_.multi_face_removals;
+  }
+
+ private:
+  TetMesh& m_;
+  const ImproveOptions& o_;
+  ImproveReport& r_;
+  const LogFn& log_;
+  const std::atomic<bool>* stop_;
+};
 }  // namespace
 
 const char* mode_name(ImproveMode m) {
@@ -29,15 +189,16 @@ const char* mode_name(ImproveMode m) {
 Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const LogFn& log,
                const std::atomic<bool>* interrupted) {
   const auto t0 = Clock::now();
-  (void)log;
-  (void)interrupted;
   if (m.adj.size() != m.tets.size()) return Status::error(ErrorCode::Invariant, "improve: topology not built");
   rep = ImproveReport{};
   rep.before = compute_stats(m);
   InvariantSnapshot snap;
   if (opt.check_invariants) snap = capture_invariants(m);
 
-  // Mode dispatch lands with the smoothing and topology modules.
+  if (opt.weight < 0.5 || opt.weight >= 1.0)
+    return Status::error(ErrorCode::InvalidMesh, "improve: weight C must satisfy 0.5 <= C < 1");
+  Driver d(m, opt, rep, log, interrupted);
+  if (Status s = d.run(); !s) return s;
 
   if (opt.check_invariants) {
     const auto tc = Clock::now();

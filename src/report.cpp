@@ -2,6 +2,7 @@
 #include "tetopt/report.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -13,7 +14,10 @@ namespace tetopt {
 
 namespace {
 std::string fmt(const char* f, double x) {
-  if (std::isnan(x)) return "-";
+  if (std::isnan(x)) {
+    const int w = std::atoi(f + 1);  // the field width of "%9.4f" and the like
+    return std::string(static_cast<size_t>(w > 1 ? w - 1 : 0), ' ') + "-";
+  }
   char b[64];
   std::snprintf(b, sizeof b, f, x);
   return b;
