@@ -1,0 +1,209 @@
+// tetopt/topo.hpp — topological operations that never touch a constrained face.
+//
+// Smoothing moves free vertices; it cannot help a tet whose four vertices are
+// all constrained (tet_kind == 4, the "all boundary element" of Liu et al.
+// 2012, Fig. 1d).  Such a tet can only be removed by changing connectivity.
+// This module owns those changes.
+//
+// Operations.  Every operation replaces a small set of old tets (the
+// *cavity*) by new tets that fill exactly the same region:
+//   * multi-face removal (Shewchuk 2002, "Two discrete optimization algorithms
+//     for the topological improvement of tetrahedral meshes"): two apexes a, b
+//     and a triangulated disk of faces sandwiched between them (every disk
+//     triangle F has tets F+a and F+b); the 2m tets are replaced by the n
+//     tets around the new edge ab, one per disk boundary edge (n = m + 2).
+//     The disk is chosen by Shewchuk's tree dynamic program that maximises the
+//     worst new quality.  The 2-3 face swap is the case m = 1.
+//   * edge removal (George 1995; Shewchuk 2002): an interior edge ab shared
+//     by n tets is removed; the ring of n link vertices is triangulated and
+//     each triangle gives a tet with a and one with b, 2n - 4 tets in all.
+//     The triangulation maximising the worst alpha is found by the O(n^3)
+//     polygon dynamic program of Klincsek / Shewchuk 2002.  3-2 is n = 3,
+//     4-4 is n = 4 (choice of the ring diagonal).
+//   * 2-2: needs an edge shared by exactly two tets, i.e. an edge on the
+//     domain boundary whose two boundary faces it would alter; such faces are
+//     always constrained, so flip_22 always answers BoundaryLocked (it exists
+//     so callers can ask, and tests prove it refuses).
+//   Freitag & Ollivier-Gooch 1997 ("Tetrahedral mesh improvement using
+//   swapping and smoothing") established 2-3/3-2/edge swapping as the
+//   workhorses; Klingner & Shewchuk 2007 ("Aggressive tetrahedral mesh
+//   improvement") showed that edge removal plus multi-face removal with
+//   optimal choices beats plain flips.  Both are the model for this module.
+//
+// Every operation runs the same steps: gather the shell / sandwich through the
+// tet-tet adjacency (no vertex->tet CSR needed) → build the candidate in
+// scratch owned by TopoEditor → exact orient3d of every new tet (must be
+// Positive) → quality test (alpha, quality.hpp) against a named margin →
+// combinatorial check that the new tets' boundary equals the cavity's
+// boundary, face for face and orientation for orientation → commit.  A
+// TopoResult says why an operation did not apply.
+//
+// Invariants (tested): no constrained face (face_mask bit: domain boundary,
+// region interface, listed triangle) is removed, split or altered; no edge
+// listed in m.edges is removed; no new face equals a listed triangle; no
+// vertex moves or disappears; every new tet is exactly positive; new tets take
+// the region ref (and Gmsh entity tag) of the tets they replace, and a cavity
+// never spans two refs/entities (RegionMismatch).  Total and per-region volume
+// are conserved up to rounding.
+//
+// Bookkeeping.  Inside a TopoEditor session m.tets, tet_ref, tet_entity, adj,
+// face_mask and tet_kind are kept right incrementally: a removed tet's slot is
+// reused, extra new tets are appended, and removed slots left over are
+// tombstones (tets[4t] == -1) until finish() compacts them (swap with last),
+// rebuilds the vertex->tet CSR, re-runs classify() and bumps
+// m.topology_epoch.  Vertex constraint flags never change (constrained faces
+// survive, so their vertices do).  Iteration is in index order: the same input
+// gives the same output.
+//
+// Complexity: one edge removal costs O(n^3) alpha evaluations (n <= 16); a
+// pass touches only the tets it is told to (kind 4, or alpha below a
+// threshold) plus O(nt) for the alpha cache and the final rebuild.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "tetopt/mesh.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt {
+
+/// Why an operation did or did not apply.
+enum class TopoResult {
+  Applied,         ///< the mesh was changed (or, from a plan, would be acceptable)
+  Inverted,        ///< some new tet would not be exactly positive
+  NotImproved,     ///< valid, but fails the quality policy (TopoOptions)
+  BoundaryLocked,  ///< would remove or alter a constrained face / listed edge, or create a listed triangle
+  ShellTooLarge,   ///< shell or sandwich larger than TopoOptions::max_shell
+  RegionMismatch,  ///< the cavity spans two region refs or Gmsh entities
+  NotApplicable,   ///< the configuration does not exist (dead tet, bad index, not manifold)
+};
+
+/// Short English name of a result ("Applied", "Inverted", ...).
+const char* to_string(TopoResult r);
+
+/// Largest shell / ring size any operation accepts (capacity of the scratch).
+inline constexpr int kMaxShell = 16;
+
+/// Policy and limits of the topological operations.
+struct TopoOptions {
+  /// An operation "improves" when the worst alpha of the new tets exceeds the
+  /// worst alpha of the tets it replaces by more than this margin; the margin
+  /// stops passes from cycling.
+  double margin = 1e-6;
+  /// true: every operation must improve (see margin).  false (the paper's
+  /// point, §4: the transformation need not improve at once, smoothing the
+  /// vertices it brings in does): remove_all_boundary_tets and the single
+  /// operations may also accept a change that lowers the number of kind-4
+  /// tets in the cavity while the worst alpha drops by at most worsen_bound.
+  /// flip_pass always requires improvement.
+  bool must_improve = true;
+  double worsen_bound = 0.0;  ///< allowed drop of the worst alpha (absolute), see must_improve
+  int max_shell = 12;         ///< largest shell / ring / sandwich size tried (<= kMaxShell)
+  int passes = 5;             ///< a pass function stops after this many passes or a pass with no change
+  double quality_threshold = 0.3;  ///< flip_pass visits only tets with alpha below this
+  bool use_face_swap = true;       ///< 2-3 flips (multi-face removal with one face)
+  bool use_edge_removal = true;    ///< edge removal, 3-2 and 4-4 included
+  bool use_multi_face = true;      ///< multi-face removal with two or more faces
+};
+
+/// Counters of applied operations.
+struct TopoStats {
+  int64_t flip23 = 0;               ///< multi-face removals of one face
+  int64_t flip32 = 0;               ///< edge removals with n = 3
+  int64_t flip44 = 0;               ///< edge removals with n = 4
+  int64_t edge_removals = 0;        ///< edge removals with n >= 5
+  int64_t multi_face_removals = 0;  ///< multi-face removals of two or more faces
+  int64_t flip22 = 0;               ///< always 0 (see flip_22)
+  int64_t all_boundary_removed = 0; ///< operations that removed a kind-4 tet they were aimed at
+  int64_t kind4_before = 0, kind4_after = 0;  ///< kind-4 tets before / after the call
+  double alpha_worst_before = 0, alpha_worst_after = 0;  ///< over all tets
+  int64_t tets_before = 0, tets_after = 0;
+  int passes = 0;
+  double seconds = 0;
+  Status status;  ///< not ok when the topology could not be built
+  int64_t applied() const { return flip23 + flip32 + flip44 + edge_removals + multi_face_removals + flip22; }
+};
+
+/// A session of topological edits on one mesh.  Construction requires the
+/// topology (build_topology) to be current; it builds an alpha cache (O(nt)).
+/// Tet ids stay stable during the session except that removed tets become
+/// tombstones and slots are reused; finish() compacts (ids change) and
+/// refreshes the derived topology.  The destructor calls finish() if needed.
+/// Not copyable.  All operations of one editor obey its TopoOptions.
+class TopoEditor {
+ public:
+  TopoEditor(TetMesh& m, const TopoOptions& o);
+  ~TopoEditor();
+  TopoEditor(const TopoEditor&) = delete;
+  TopoEditor& operator=(const TopoEditor&) = delete;
+
+  /// 2-3 face swap across face lf (0..3) of tet t.
+  TopoResult flip_23(int32_t t, int lf);
+  /// 3-2: edge removal of local edge le (0..5) of t when its shell has 3 tets
+  /// (NotApplicable otherwise).
+  TopoResult flip_32(int32_t t, int le);
+  /// 4-4: edge removal of local edge le of t when its shell has 4 tets.
+  TopoResult flip_44(int32_t t, int le);
+  /// 2-2: always BoundaryLocked (an edge with two tets lies on the boundary)
+  /// or NotApplicable (the edge has more tets).
+  TopoResult flip_22(int32_t t, int le);
+  /// General edge removal of local edge le of t (n = 3..max_shell tets).
+  TopoResult remove_edge(int32_t t, int le);
+  /// Multi-face removal starting at face lf of t (apex a = vertex lf of t,
+  /// apex b = the neighbour's opposite vertex); 2-3 when one face is best.
+  TopoResult remove_multi_face(int32_t t, int lf);
+
+  /// Algorithm 4 of Liu et al. on one tet: tries edge removal on each of
+  /// t's edges, face swaps and multi-face removals across its unconstrained
+  /// faces, and commits the acceptable option with the best worst alpha.
+  TopoResult improve_tet(int32_t t, bool strict);
+
+  bool alive(int32_t t) const;      ///< t is a live tet (not a tombstone)
+  double cached_alpha(int32_t t) const { return alpha_[t]; }
+  const TopoStats& stats() const { return stats_; }
+  TopoStats& stats() { return stats_; }
+  /// Compacts tombstones, rebuilds vertex->tet CSR, classify(), bumps
+  /// topology_epoch.  Idempotent; the editor must not be used afterwards.
+  void finish();
+
+  struct Candidate;  // scratch (defined in topo.cpp)
+
+ private:
+  TopoResult plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c);
+  TopoResult plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c);
+  TopoResult finish_plan(bool strict, Candidate& c);
+  void commit(const Candidate& c);
+  void count(const Candidate& c);
+
+  TetMesh& m_;
+  TopoOptions o_;
+  std::vector<double> alpha_;
+  std::vector<int32_t> free_;
+  std::vector<uint64_t> listed_edges_;
+  std::vector<int32_t> listed_tris_;  // sorted triples, flattened
+  Candidate* cand_ = nullptr;         // two scratch candidates (current, best)
+  Candidate* best_ = nullptr;
+  TopoStats stats_;
+  bool finished_ = false;
+};
+
+/// Single operations on a mesh with current topology.  Each opens a
+/// TopoEditor, applies one operation and finishes (O(nt) per call: use a
+/// TopoEditor or a pass for bulk work).  Tet ids may change when a tet is
+/// removed (3-2, multi-face removal).
+TopoResult flip_23(TetMesh& m, int32_t t, int lf, const TopoOptions& o = {});
+TopoResult flip_32(TetMesh& m, int32_t t, int le, const TopoOptions& o = {});
+TopoResult remove_edge(TetMesh& m, int32_t t, int le, const TopoOptions& o = {});
+TopoResult remove_multi_face(TetMesh& m, int32_t t, int lf, const TopoOptions& o = {});
+
+/// Liu et al. 2012 Algorithm 4 over every all-boundary tet (tet_kind == 4),
+/// repeated for o.passes passes or until a pass changes nothing.  Builds the
+/// topology first if it is missing.  Policy: o.must_improve / worsen_bound.
+TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o = {}, const LogFn& log = {});
+
+/// Quality-driven pass: for every tet with alpha below o.quality_threshold
+/// (index order), commits the best operation touching it that raises the
+/// worst alpha of its cavity by more than o.margin.
+TopoStats flip_pass(TetMesh& m, const TopoOptions& o = {}, const LogFn& log = {});
+
+}  // namespace tetopt

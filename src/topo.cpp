@@ -1,0 +1,792 @@
+// Topological operations that never touch a constrained face (see topo.hpp).
+//
+// References:
+//   J. R. Shewchuk, "Two discrete optimization algorithms for the topological
+//     improvement of tetrahedral meshes", unpublished manuscript, 2002
+//     (edge removal by polygon DP, multi-face removal by tree DP).
+//   L. A. Freitag and C. Ollivier-Gooch, "Tetrahedral mesh improvement using
+//     swapping and smoothing", IJNME 40(21), 1997.
+//   B. M. Klingner and J. R. Shewchuk, "Aggressive tetrahedral mesh
+//     improvement", Proc. 16th International Meshing Roundtable, 2007.
+//   H. Liu et al., "A novel mesh quality improvement method for boundary
+//     elements", J. Applied Mathematics, 2012, Algorithm 4.
+#include "tetopt/topo.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "tetopt/predicates.hpp"
+#include "tetopt/quality.hpp"
+
+namespace tetopt {
+
+namespace {
+
+constexpr int kMaxOld = 2 * kMaxShell;      // old tets of a cavity
+constexpr int kMaxNew = 2 * kMaxShell;      // new tets of a cavity
+constexpr int kMaxOuter = 4 * kMaxOld;      // outer faces of a cavity
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+uint64_t edge_key(int32_t a, int32_t b) {
+  if (a > b) std::swap(a, b);
+  return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b);
+}
+
+// Rotates a triangle so its smallest vertex comes first (keeps orientation).
+void canonical(const int32_t in[3], int32_t out[3]) {
+  int k = 0;
+  if (in[1] < in[k]) k = 1;
+  if (in[2] < in[k]) k = 2;
+  out[0] = in[k];
+  out[1] = in[(k + 1) % 3];
+  out[2] = in[(k + 2) % 3];
+}
+
+bool same3(const int32_t a[3], const int32_t b[3]) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
+
+// Parity of a permutation of (0,1,2,3): true when odd.
+bool odd_perm(const int p[4]) {
+  int inv = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) inv += p[i] > p[j];
+  return (inv & 1) != 0;
+}
+
+int local_of(const int32_t* tv, int32_t v) {
+  for (int i = 0; i < 4; ++i)
+    if (tv[i] == v) return i;
+  return -1;
+}
+
+}  // namespace
+
+const char* to_string(TopoResult r) {
+  switch (r) {
+    case TopoResult::Applied: return "Applied";
+    case TopoResult::Inverted: return "Inverted";
+    case TopoResult::NotImproved: return "NotImproved";
+    case TopoResult::BoundaryLocked: return "BoundaryLocked";
+    case TopoResult::ShellTooLarge: return "ShellTooLarge";
+    case TopoResult::RegionMismatch: return "RegionMismatch";
+    case TopoResult::NotApplicable: return "NotApplicable";
+  }
+  return "?";
+}
+
+// A planned operation: the cavity, the new tets and how their faces connect.
+struct TopoEditor::Candidate {
+  enum Kind { Edge, Multi } kind = Edge;
+  int size = 0;  // shell size n (Edge) or number of removed faces m (Multi)
+  int n_old = 0;
+  int32_t old_tets[kMaxOld];
+  int n_new = 0;
+  int32_t quad[kMaxNew][4];
+  double new_alpha[kMaxNew];
+  double old_min = 0, new_min = 0;
+  int k4_old = 0, k4_new = 0;
+  int32_t ref = 0, entity = 0;
+  // Face 4i+f of new tet i: link >= 0 is the packed face 4j+g of new tet j
+  // across it; link < 0 is outer face -1-link of the cavity.
+  int32_t link[4 * kMaxNew];
+  int n_outer = 0;
+  int32_t outer_v[kMaxOuter][3];  // canonical, outward from the cavity
+  int32_t outer_nb[kMaxOuter];    // packed neighbour face outside, or -1
+  uint8_t outer_mask[kMaxOuter];  // 1 when constrained
+};
+
+TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : m_(m), o_(o) {
+  o_.max_shell = std::clamp(o_.max_shell, 3, kMaxShell);
+  const int32_t nt = m_.nt();
+  alpha_.resize(nt);
+  for (int32_t t = 0; t < nt; ++t) alpha_[t] = tet_alpha(m_, t);
+  for (int32_t i = 0; i + 1 < static_cast<int32_t>(m_.edges.size()); i += 2)
+    listed_edges_.push_back(edge_key(m_.edges[i], m_.edges[i + 1]));
+  std::sort(listed_edges_.begin(), listed_edges_.end());
+  {
+    std::vector<std::array<int32_t, 3>> tri;
+    tri.reserve(m_.ntri());
+    for (int32_t i = 0; i < m_.ntri(); ++i) {
+      std::array<int32_t, 3> k{m_.tris[3 * i], m_.tris[3 * i + 1], m_.tris[3 * i + 2]};
+      std::sort(k.begin(), k.end());
+      tri.push_back(k);
+    }
+    std::sort(tri.begin(), tri.end());
+    for (const auto& k : tri) listed_tris_.insert(listed_tris_.end(), k.begin(), k.end());
+  }
+  cand_ = new Candidate;
+  best_ = new Candidate;
+  stats_.tets_before = nt;
+}
+
+TopoEditor::~TopoEditor() {
+  finish();
+  delete cand_;
+  delete best_;
+}
+
+bool TopoEditor::alive(int32_t t) const {
+  return t >= 0 && t < m_.nt() && m_.tets[4 * static_cast<size_t>(t)] >= 0;
+}
+
+// ---------------------------------------------------------------------------
+// Edge removal: gather the shell of edge (a,b), triangulate the ring by DP.
+TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c) {
+  if (!alive(t) || le < 0 || le > 5) return TopoResult::NotApplicable;
+  const int32_t* tv = m_.tet(t);
+  int p[4] = {kEdgeVertex[le][0], kEdgeVertex[le][1], 0, 0};
+  {
+    int k = 2;
+    for (int i = 0; i < 4; ++i)
+      if (i != p[0] && i != p[1]) p[k++] = i;
+    if (odd_perm(p)) std::swap(p[2], p[3]);
+  }
+  // orient(a, b, ring[i], ring[i+1]) > 0 for every shell tet (a, b, r_i, r_i+1).
+  const int32_t a = tv[p[0]], b = tv[p[1]];
+  if (!listed_edges_.empty() && std::binary_search(listed_edges_.begin(), listed_edges_.end(), edge_key(a, b)))
+    return TopoResult::BoundaryLocked;
+  int32_t ring[kMaxShell + 2], shell[kMaxShell + 1];
+  ring[0] = tv[p[2]];
+  ring[1] = tv[p[3]];
+  shell[0] = t;
+  int n = 1;
+  const int32_t ref = m_.tet_ref[t];
+  const bool has_entity = !m_.tet_entity.empty();
+  const int32_t ent = has_entity ? m_.tet_entity[t] : 0;
+  auto cross = [&](int32_t cur, int lo, int32_t& nb) -> TopoResult {
+    nb = m_.adj[4 * static_cast<size_t>(cur) + lo];
+    if (nb < 0) return TopoResult::BoundaryLocked;
+    const int32_t o = nb / 4;
+    if (m_.tet_ref[o] != ref || (has_entity && m_.tet_entity[o] != ent)) return TopoResult::RegionMismatch;
+    if (m_.face_mask[cur] & (1u << lo)) return TopoResult::BoundaryLocked;
+    return TopoResult::Applied;
+  };
+  while (ring[n] != ring[0]) {
+    const int32_t cur = shell[n - 1];
+    const int lo = local_of(m_.tet(cur), ring[n - 1]);
+    int32_t nb;
+    if (TopoResult r = cross(cur, lo, nb); r != TopoResult::Applied) return r;
+    if (n >= o_.max_shell) return TopoResult::ShellTooLarge;
+    if (nb / 4 == t) return TopoResult::NotApplicable;  // inconsistent adjacency
+    shell[n] = nb / 4;
+    ring[n + 1] = m_.tets[nb];
+    ++n;
+  }
+  {  // the face (a, b, r0) closing the shell, between shell[n-1] and t
+    int32_t nb;
+    if (TopoResult r = cross(t, p[3], nb); r != TopoResult::Applied) return r;
+    if (nb / 4 != shell[n - 1]) return TopoResult::NotApplicable;
+  }
+  if (want_n > 0 && n != want_n) return TopoResult::NotApplicable;
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j)
+      if (ring[i] == ring[j] || shell[i] == shell[j]) return TopoResult::NotApplicable;
+
+  c.kind = Candidate::Edge;
+  c.size = n;
+  c.ref = ref;
+  c.entity = ent;
+  c.n_old = n;
+  c.old_min = kInf;
+  c.k4_old = 0;
+  for (int i = 0; i < n; ++i) {
+    c.old_tets[i] = shell[i];
+    c.old_min = std::min(c.old_min, alpha_[shell[i]]);
+    c.k4_old += m_.tet_kind[shell[i]] == 4;
+  }
+
+  // Polygon DP (Klincsek 1980; Shewchuk 2002): q[i][j] is the best worst
+  // alpha over triangulations of the sub-polygon r_i .. r_j; triangle
+  // (i, k, j) with i < k < j gives tets (r_i, r_k, r_j, b) and (r_i, r_j, r_k, a).
+  double q[kMaxShell][kMaxShell];
+  int arg[kMaxShell][kMaxShell];
+  const double* pa = m_.point(a);
+  const double* pb = m_.point(b);
+  for (int i = 0; i + 1 < n; ++i) q[i][i + 1] = kInf;
+  for (int len = 2; len < n; ++len)
+    for (int i = 0; i + len < n; ++i) {
+      const int j = i + len;
+      double best = -kInf;
+      int bk = i + 1;
+      for (int k = i + 1; k < j; ++k) {
+        double v = std::min(q[i][k], q[k][j]);
+        if (v <= best) continue;
+        const double* pi = m_.point(ring[i]);
+        const double* pk = m_.point(ring[k]);
+        const double* pj = m_.point(ring[j]);
+        v = std::min(v, alpha(pi, pk, pj, pb));
+        if (v <= best) continue;
+        v = std::min(v, alpha(pi, pj, pk, pa));
+        if (v > best) {
+          best = v;
+          bk = k;
+        }
+      }
+      q[i][j] = best;
+      arg[i][j] = bk;
+    }
+  c.new_min = q[0][n - 1];
+  if (!(c.new_min > 0)) return TopoResult::Inverted;
+  if (c.new_min <= c.old_min + o_.margin && (strict || o_.must_improve || c.new_min < c.old_min - o_.worsen_bound))
+    return TopoResult::NotImproved;
+  // Emit the optimal triangulation.
+  c.n_new = 0;
+  c.k4_new = 0;
+  int stack[2 * kMaxShell][2];
+  int sp = 0;
+  stack[sp][0] = 0;
+  stack[sp][1] = n - 1;
+  ++sp;
+  while (sp > 0) {
+    --sp;
+    const int i = stack[sp][0], j = stack[sp][1];
+    if (j - i < 2) continue;
+    const int k = arg[i][j];
+    int32_t* top = c.quad[c.n_new++];
+    top[0] = ring[i]; top[1] = ring[k]; top[2] = ring[j]; top[3] = b;
+    int32_t* bot = c.quad[c.n_new++];
+    bot[0] = ring[i]; bot[1] = ring[j]; bot[2] = ring[k]; bot[3] = a;
+    stack[sp][0] = i; stack[sp][1] = k; ++sp;
+    stack[sp][0] = k; stack[sp][1] = j; ++sp;
+  }
+  return finish_plan(strict, c);
+}
+
+// ---------------------------------------------------------------------------
+// Multi-face removal: faces sandwiched between apexes a (side of t) and b.
+TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c) {
+  if (!alive(t) || lf < 0 || lf > 3) return TopoResult::NotApplicable;
+  max_tris = std::min(max_tris, o_.max_shell - 2);
+  if (max_tris < 1) return TopoResult::ShellTooLarge;
+  const int32_t ref = m_.tet_ref[t];
+  const bool has_entity = !m_.tet_entity.empty();
+  const int32_t ent = has_entity ? m_.tet_entity[t] : 0;
+  // A face between two tets of the cavity: must be interior, same region,
+  // unconstrained.
+  auto removable = [&](int32_t packed) -> TopoResult {
+    const int32_t nb = m_.adj[packed];
+    if (nb < 0) return TopoResult::BoundaryLocked;
+    const int32_t o = nb / 4;
+    if (m_.tet_ref[o] != ref || (has_entity && m_.tet_entity[o] != ent)) return TopoResult::RegionMismatch;
+    if (m_.face_mask[packed / 4] & (1u << (packed % 4))) return TopoResult::BoundaryLocked;
+    return TopoResult::Applied;
+  };
+  if (TopoResult r = removable(4 * t + lf); r != TopoResult::Applied) return r;
+  const int32_t nb0 = m_.adj[4 * static_cast<size_t>(t) + lf];
+  const int32_t a = m_.tets[4 * static_cast<size_t>(t) + lf];
+  const int32_t b = m_.tets[nb0];
+  // Sandwich triangles, oriented with their normal towards b.
+  struct Tri {
+    int32_t v[3];
+    int32_t up, lo;  // tets (a + tri) and (b + tri)
+    int child[3];    // for edge (v[e], v[e+1]): child triangle or -1
+    int parent_edge;
+    double best;     // DP value of the subtree
+    bool take[3];    // DP choice: include the child across edge e
+  };
+  Tri tri[kMaxShell];
+  int nt = 1;
+  {
+    Tri& r = tri[0];
+    const int32_t* tv = m_.tet(t);
+    for (int i = 0; i < 3; ++i) r.v[i] = tv[kFaceVertex[lf][i]];
+    r.up = t;
+    r.lo = nb0 / 4;
+    r.parent_edge = -1;
+  }
+  for (int i = 0; i < nt; ++i) {
+    Tri& r = tri[i];
+    for (int e = 0; e < 3; ++e) {
+      r.child[e] = -1;
+      r.take[e] = false;
+      if (e == r.parent_edge || nt >= max_tris) continue;
+      const int32_t x = r.v[e], y = r.v[(e + 1) % 3], z = r.v[(e + 2) % 3];
+      const int lu = local_of(m_.tet(r.up), z), ll = local_of(m_.tet(r.lo), z);
+      const int32_t fu = 4 * r.up + lu, fl = 4 * r.lo + ll;
+      if (removable(fu) != TopoResult::Applied || removable(fl) != TopoResult::Applied) continue;
+      const int32_t nu = m_.adj[fu], nl = m_.adj[fl];
+      const int32_t s = m_.tets[nu];
+      if (s != m_.tets[nl] || s == a || s == b) continue;
+      const int32_t X = nu / 4, Y = nl / 4;
+      // X = (a, y, x, s) and Y = (b, y, x, s) must meet across (y, x, s).
+      const int la = local_of(m_.tet(X), a);
+      if (la < 0 || m_.adj[4 * X + la] / 4 != Y || removable(4 * X + la) != TopoResult::Applied) continue;
+      bool seen = false;  // a cycle in the dual graph: leave that edge on the ring
+      for (int q = 0; q < nt && !seen; ++q) seen = tri[q].up == X;
+      if (seen) continue;
+      Tri& ch = tri[nt];
+      ch.v[0] = y; ch.v[1] = x; ch.v[2] = s;
+      ch.up = X;
+      ch.lo = Y;
+      ch.parent_edge = 0;
+      r.child[e] = nt++;
+    }
+  }
+  // Tree DP (Shewchuk 2002): for each edge either stop (new tet (a, b, x, y))
+  // or include the child subtree; maximise the worst new alpha.
+  const double* pa = m_.point(a);
+  const double* pb = m_.point(b);
+  for (int i = nt - 1; i >= 0; --i) {
+    Tri& r = tri[i];
+    r.best = kInf;
+    for (int e = 0; e < 3; ++e) {
+      if (e == r.parent_edge) continue;
+      const double stop = alpha(pa, pb, m_.point(r.v[e]), m_.point(r.v[(e + 1) % 3]));
+      double v = stop;
+      if (r.child[e] >= 0 && tri[r.child[e]].best > stop) {
+        v = tri[r.child[e]].best;
+        r.take[e] = true;
+      }
+      r.best = std::min(r.best, v);
+    }
+  }
+  c.kind = Candidate::Multi;
+  c.ref = ref;
+  c.entity = ent;
+  c.new_min = tri[0].best;
+  if (!(c.new_min > 0)) return TopoResult::Inverted;
+  // Collect the chosen subtree.
+  int chosen[kMaxShell];
+  int nc = 0;
+  chosen[nc++] = 0;
+  for (int i = 0; i < nc; ++i)
+    for (int e = 0; e < 3; ++e)
+      if (tri[chosen[i]].take[e]) chosen[nc++] = tri[chosen[i]].child[e];
+  c.size = nc;
+  c.n_old = 0;
+  c.old_min = kInf;
+  c.k4_old = 0;
+  int32_t verts[kMaxShell + 2];
+  int nverts = 0;
+  for (int i = 0; i < nc; ++i) {
+    const Tri& r = tri[chosen[i]];
+    for (int32_t o : {r.up, r.lo}) {
+      c.old_tets[c.n_old++] = o;
+      c.old_min = std::min(c.old_min, alpha_[o]);
+      c.k4_old += m_.tet_kind[o] == 4;
+    }
+    for (int k = 0; k < 3; ++k) {
+      bool have = false;
+      for (int q = 0; q < nverts && !have; ++q) have = verts[q] == r.v[k];
+      if (!have) {
+        if (nverts >= kMaxShell + 2) return TopoResult::NotApplicable;
+        verts[nverts++] = r.v[k];
+      }
+    }
+  }
+  // A disk without interior vertices: otherwise a vertex would vanish.
+  if (nverts != nc + 2) return TopoResult::NotApplicable;
+  if (c.new_min <= c.old_min + o_.margin && (strict || o_.must_improve || c.new_min < c.old_min - o_.worsen_bound))
+    return TopoResult::NotImproved;
+  c.n_new = 0;
+  for (int i = 0; i < nc; ++i) {
+    const Tri& r = tri[chosen[i]];
+    for (int e = 0; e < 3; ++e) {
+      if (e == r.parent_edge || r.take[e]) continue;
+      int32_t* q = c.quad[c.n_new++];
+      q[0] = a; q[1] = b; q[2] = r.v[e]; q[3] = r.v[(e + 1) % 3];
+    }
+  }
+  if (c.n_new != nc + 2) return TopoResult::NotApplicable;
+  return finish_plan(strict, c);
+}
+
+// ---------------------------------------------------------------------------
+// Shared tail of every plan: kind-4 count, exact orientation, policy, and the
+// combinatorial check that the new tets fill exactly the cavity.
+TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) {
+  c.k4_new = 0;
+  double worst = kInf;
+  for (int i = 0; i < c.n_new; ++i) {
+    const int32_t* q = c.quad[i];
+    c.k4_new += (m_.vert_constrained[q[0]] + m_.vert_constrained[q[1]] + m_.vert_constrained[q[2]] +
+                 m_.vert_constrained[q[3]]) == 4;
+    c.new_alpha[i] = alpha(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]));
+    worst = std::min(worst, c.new_alpha[i]);
+  }
+  c.new_min = worst;
+  bool ok = c.new_min > c.old_min + o_.margin;
+  if (!ok && !strict && !o_.must_improve)
+    ok = c.k4_new < c.k4_old && c.new_min >= c.old_min - o_.worsen_bound;
+  if (!ok) return c.new_min > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
+  for (int i = 0; i < c.n_new; ++i) {
+    const int32_t* q = c.quad[i];
+    if (orient3d(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])) != Sign::Positive)
+      return TopoResult::Inverted;
+  }
+  // Outer faces of the cavity; faces between cavity tets must be free.
+  auto in_cavity = [&](int32_t o) {
+    for (int i = 0; i < c.n_old; ++i)
+      if (c.old_tets[i] == o) return true;
+    return false;
+  };
+  c.n_outer = 0;
+  for (int i = 0; i < c.n_old; ++i) {
+    const int32_t o = c.old_tets[i];
+    const int32_t* tv = m_.tet(o);
+    for (int f = 0; f < 4; ++f) {
+      const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+      const bool constrained = (m_.face_mask[o] >> f) & 1u;
+      if (nb >= 0 && in_cavity(nb / 4)) {
+        if (constrained) return TopoResult::BoundaryLocked;
+        continue;
+      }
+      const int32_t v[3] = {tv[kFaceVertex[f][0]], tv[kFaceVertex[f][1]], tv[kFaceVertex[f][2]]};
+      canonical(v, c.outer_v[c.n_outer]);
+      c.outer_nb[c.n_outer] = nb;
+      c.outer_mask[c.n_outer] = constrained ? 1 : 0;
+      ++c.n_outer;
+    }
+  }
+  bool used[kMaxOuter] = {};
+  for (int i = 0; i < 4 * c.n_new; ++i) c.link[i] = std::numeric_limits<int32_t>::min();
+  for (int i = 0; i < c.n_new; ++i)
+    for (int f = 0; f < 4; ++f) {
+      if (c.link[4 * i + f] != std::numeric_limits<int32_t>::min()) continue;
+      const int32_t* q = c.quad[i];
+      const int32_t v[3] = {q[kFaceVertex[f][0]], q[kFaceVertex[f][1]], q[kFaceVertex[f][2]]};
+      int32_t key[3], rev[3];
+      canonical(v, key);
+      const int32_t vr[3] = {v[0], v[2], v[1]};
+      canonical(vr, rev);
+      int found = 0;
+      for (int k = 0; k < c.n_outer; ++k) {
+        if (same3(c.outer_v[k], key)) {
+          if (used[k]) return TopoResult::NotApplicable;
+          used[k] = true;
+          c.link[4 * i + f] = -1 - k;
+          ++found;
+        } else if (same3(c.outer_v[k], rev)) {
+          return TopoResult::NotApplicable;
+        }
+      }
+      for (int j = i + 1; j < c.n_new; ++j)
+        for (int g = 0; g < 4; ++g) {
+          const int32_t* r = c.quad[j];
+          const int32_t w[3] = {r[kFaceVertex[g][0]], r[kFaceVertex[g][1]], r[kFaceVertex[g][2]]};
+          int32_t wk[3];
+          canonical(w, wk);
+          if (same3(wk, rev)) {
+            if (found || c.link[4 * j + g] != std::numeric_limits<int32_t>::min()) return TopoResult::NotApplicable;
+            c.link[4 * i + f] = 4 * j + g;
+            c.link[4 * j + g] = 4 * i + f;
+            ++found;
+          } else if (same3(wk, key)) {
+            return TopoResult::NotApplicable;
+          }
+        }
+      if (found != 1) return TopoResult::NotApplicable;
+      if (c.link[4 * i + f] >= 0 && !listed_tris_.empty()) {
+        int32_t s[3] = {v[0], v[1], v[2]};
+        std::sort(s, s + 3);
+        // binary search over flattened sorted triples
+        size_t lo = 0, hi = listed_tris_.size() / 3;
+        while (lo < hi) {
+          const size_t mid = (lo + hi) / 2;
+          const int32_t* x = &listed_tris_[3 * mid];
+          if (std::lexicographical_compare(x, x + 3, s, s + 3)) lo = mid + 1;
+          else hi = mid;
+        }
+        if (lo < listed_tris_.size() / 3 && same3(&listed_tris_[3 * lo], s)) return TopoResult::BoundaryLocked;
+      }
+    }
+  for (int k = 0; k < c.n_outer; ++k)
+    if (!used[k]) return TopoResult::NotApplicable;
+  return TopoResult::Applied;
+}
+
+// ---------------------------------------------------------------------------
+void TopoEditor::commit(const Candidate& c) {
+  int32_t slot[kMaxNew];
+  const bool has_entity = !m_.tet_entity.empty();
+  for (int i = 0; i < c.n_new; ++i) {
+    if (i < c.n_old) {
+      slot[i] = c.old_tets[i];
+    } else if (!free_.empty()) {
+      slot[i] = free_.back();
+      free_.pop_back();
+    } else {
+      slot[i] = m_.nt();
+      m_.tets.insert(m_.tets.end(), 4, -1);
+      m_.adj.insert(m_.adj.end(), 4, -1);
+      m_.tet_ref.push_back(c.ref);
+      if (has_entity) m_.tet_entity.push_back(c.entity);
+      m_.face_mask.push_back(0);
+      m_.tet_kind.push_back(0);
+      alpha_.push_back(0);
+    }
+  }
+  for (int i = c.n_new; i < c.n_old; ++i) {
+    const int32_t o = c.old_tets[i];
+    for (int k = 0; k < 4; ++k) {
+      m_.tets[4 * static_cast<size_t>(o) + k] = -1;
+      m_.adj[4 * static_cast<size_t>(o) + k] = -1;
+    }
+    m_.face_mask[o] = 0;
+    m_.tet_kind[o] = 0;
+    alpha_[o] = kInf;
+  }
+  // Outer faces' neighbours must be read before slots are overwritten: they
+  // are outside the cavity, so they are never among the slots.
+  for (int i = 0; i < c.n_new; ++i) {
+    const int32_t s = slot[i];
+    uint8_t mask = 0;
+    int kind = 0;
+    for (int k = 0; k < 4; ++k) {
+      m_.tets[4 * static_cast<size_t>(s) + k] = c.quad[i][k];
+      kind += m_.vert_constrained[c.quad[i][k]];
+    }
+    for (int f = 0; f < 4; ++f) {
+      const int32_t l = c.link[4 * i + f];
+      int32_t& a = m_.adj[4 * static_cast<size_t>(s) + f];
+      if (l >= 0) {
+        a = 4 * slot[l / 4] + l % 4;
+      } else {
+        const int k = -1 - l;
+        a = c.outer_nb[k];
+        if (a >= 0) m_.adj[a] = 4 * s + f;
+        if (c.outer_mask[k]) mask |= static_cast<uint8_t>(1u << f);
+      }
+    }
+    m_.tet_ref[s] = c.ref;
+    if (has_entity) m_.tet_entity[s] = c.entity;
+    m_.face_mask[s] = mask;
+    m_.tet_kind[s] = static_cast<uint8_t>(kind);
+    alpha_[s] = c.new_alpha[i];
+  }
+  for (int i = c.n_new; i < c.n_old; ++i) free_.push_back(c.old_tets[i]);
+  count(c);
+}
+
+void TopoEditor::count(const Candidate& c) {
+  if (c.kind == Candidate::Edge) {
+    if (c.size == 3) ++stats_.flip32;
+    else if (c.size == 4) ++stats_.flip44;
+    else ++stats_.edge_removals;
+  } else {
+    if (c.size == 1) ++stats_.flip23;
+    else ++stats_.multi_face_removals;
+  }
+}
+
+// ---------------------------------------------------------------------------
+TopoResult TopoEditor::flip_23(int32_t t, int lf) {
+  TopoResult r = plan_multi(t, lf, 1, false, *cand_);
+  if (r == TopoResult::Applied) commit(*cand_);
+  return r;
+}
+
+TopoResult TopoEditor::flip_32(int32_t t, int le) {
+  TopoResult r = plan_edge(t, le, 3, false, *cand_);
+  if (r == TopoResult::Applied) commit(*cand_);
+  return r;
+}
+
+TopoResult TopoEditor::flip_44(int32_t t, int le) {
+  TopoResult r = plan_edge(t, le, 4, false, *cand_);
+  if (r == TopoResult::Applied) commit(*cand_);
+  return r;
+}
+
+TopoResult TopoEditor::flip_22(int32_t t, int le) {
+  // A 2-2 flip needs an edge with exactly two tets: such an edge lies on the
+  // domain boundary and the flip would replace its two boundary faces.
+  TopoResult r = plan_edge(t, le, 2, true, *cand_);
+  if (r == TopoResult::BoundaryLocked || r == TopoResult::RegionMismatch) return TopoResult::BoundaryLocked;
+  return TopoResult::NotApplicable;
+}
+
+TopoResult TopoEditor::remove_edge(int32_t t, int le) {
+  TopoResult r = plan_edge(t, le, 0, false, *cand_);
+  if (r == TopoResult::Applied) commit(*cand_);
+  return r;
+}
+
+TopoResult TopoEditor::remove_multi_face(int32_t t, int lf) {
+  TopoResult r = plan_multi(t, lf, o_.max_shell - 2, false, *cand_);
+  if (r == TopoResult::Applied) commit(*cand_);
+  return r;
+}
+
+TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
+  if (!alive(t)) return TopoResult::NotApplicable;
+  bool have = false;
+  // Most informative refusal when nothing applies (order of preference).
+  TopoResult why = TopoResult::NotApplicable;
+  auto rank = [](TopoResult r) {
+    switch (r) {
+      case TopoResult::NotImproved: return 5;
+      case TopoResult::Inverted: return 4;
+      case TopoResult::ShellTooLarge: return 3;
+      case TopoResult::RegionMismatch: return 2;
+      case TopoResult::BoundaryLocked: return 1;
+      default: return 0;
+    }
+  };
+  auto consider = [&](TopoResult r) {
+    if (r == TopoResult::Applied) {
+      // Better: higher worst alpha; on ties fewer kind-4 tets; then first.
+      if (!have || cand_->new_min > best_->new_min ||
+          (cand_->new_min == best_->new_min && cand_->k4_new < best_->k4_new)) {
+        std::swap(cand_, best_);
+        have = true;
+      }
+    } else if (rank(r) > rank(why)) {
+      why = r;
+    }
+  };
+  if (o_.use_edge_removal)
+    for (int le = 0; le < 6; ++le) consider(plan_edge(t, le, 0, strict, *cand_));
+  for (int lf = 0; lf < 4; ++lf) {
+    if (o_.use_face_swap) consider(plan_multi(t, lf, 1, strict, *cand_));
+    if (o_.use_multi_face) consider(plan_multi(t, lf, o_.max_shell - 2, strict, *cand_));
+  }
+  if (!have) return why;
+  commit(*best_);
+  return TopoResult::Applied;
+}
+
+// ---------------------------------------------------------------------------
+void TopoEditor::finish() {
+  if (finished_) return;
+  finished_ = true;
+  // Compact tombstones: move the last live tet into each hole (ascending).
+  std::sort(free_.begin(), free_.end());
+  int32_t nt = m_.nt();
+  const bool has_entity = !m_.tet_entity.empty();
+  for (int32_t h : free_) {
+    while (nt > 0 && m_.tets[4 * static_cast<size_t>(nt - 1)] < 0) --nt;
+    if (h >= nt) break;
+    const int32_t l = nt - 1;
+    for (int k = 0; k < 4; ++k) {
+      m_.tets[4 * static_cast<size_t>(h) + k] = m_.tets[4 * static_cast<size_t>(l) + k];
+      const int32_t nb = m_.adj[4 * static_cast<size_t>(l) + k];
+      m_.adj[4 * static_cast<size_t>(h) + k] = nb;
+      if (nb >= 0) m_.adj[nb] = 4 * h + k;
+      m_.tets[4 * static_cast<size_t>(l) + k] = -1;
+    }
+    m_.tet_ref[h] = m_.tet_ref[l];
+    if (has_entity) m_.tet_entity[h] = m_.tet_entity[l];
+    --nt;
+  }
+  while (nt > 0 && m_.tets[4 * static_cast<size_t>(nt - 1)] < 0) --nt;
+  free_.clear();
+  m_.tets.resize(4 * static_cast<size_t>(nt));
+  m_.adj.resize(4 * static_cast<size_t>(nt));
+  m_.tet_ref.resize(nt);
+  if (has_entity) m_.tet_entity.resize(nt);
+  build_vertex_tets(m_);
+  classify(m_);
+  m_.topology_epoch++;
+  stats_.tets_after = nt;
+}
+
+// ---------------------------------------------------------------------------
+TopoResult flip_23(TetMesh& m, int32_t t, int lf, const TopoOptions& o) {
+  TopoEditor ed(m, o);
+  return ed.flip_23(t, lf);
+}
+TopoResult flip_32(TetMesh& m, int32_t t, int le, const TopoOptions& o) {
+  TopoEditor ed(m, o);
+  return ed.flip_32(t, le);
+}
+TopoResult remove_edge(TetMesh& m, int32_t t, int le, const TopoOptions& o) {
+  TopoEditor ed(m, o);
+  return ed.remove_edge(t, le);
+}
+TopoResult remove_multi_face(TetMesh& m, int32_t t, int lf, const TopoOptions& o) {
+  TopoEditor ed(m, o);
+  return ed.remove_multi_face(t, lf);
+}
+
+namespace {
+
+bool topology_current(const TetMesh& m) {
+  const size_t nt = m.tets.size() / 4;
+  return m.adj.size() == m.tets.size() && m.face_mask.size() == nt && m.tet_kind.size() == nt &&
+         m.vert_constrained.size() == static_cast<size_t>(m.nv());
+}
+
+void measure(const TetMesh& m, int64_t& k4, double& worst) {
+  k4 = 0;
+  worst = kInf;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    k4 += m.tet_kind[t] == 4;
+    worst = std::min(worst, tet_alpha(m, t));
+  }
+}
+
+enum class PassKind { AllBoundary, Quality };
+
+TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKind kind) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TopoStats st;
+  if (!topology_current(m)) {
+    st.status = build_topology(m);
+    if (!st.status) return st;
+  }
+  st.tets_before = m.nt();
+  measure(m, st.kind4_before, st.alpha_worst_before);
+  {
+    TopoEditor ed(m, o);
+    std::vector<int32_t> work;
+    for (int p = 0; p < o.passes; ++p) {
+      work.clear();
+      for (int32_t t = 0; t < m.nt(); ++t) {
+        if (!ed.alive(t)) continue;
+        if (kind == PassKind::AllBoundary ? m.tet_kind[t] == 4 : ed.cached_alpha(t) < o.quality_threshold)
+          work.push_back(t);
+      }
+      int64_t changed = 0;
+      for (int32_t t : work) {
+        if (!ed.alive(t)) continue;
+        if (kind == PassKind::AllBoundary) {
+          if (m.tet_kind[t] != 4) continue;
+          if (ed.improve_tet(t, false) == TopoResult::Applied) {
+            ++changed;
+            ++ed.stats().all_boundary_removed;
+          }
+        } else {
+          if (!(ed.cached_alpha(t) < o.quality_threshold)) continue;
+          if (ed.improve_tet(t, true) == TopoResult::Applied) ++changed;
+        }
+      }
+      ++ed.stats().passes;
+      if (log)
+        log(LogLevel::Info, std::string(kind == PassKind::AllBoundary ? "topo all-boundary" : "topo flip") +
+                                " pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
+                                " tets visited, " + std::to_string(changed) + " operations applied");
+      if (changed == 0) break;
+    }
+    ed.finish();
+    const TopoStats& es = ed.stats();
+    st.flip23 = es.flip23;
+    st.flip32 = es.flip32;
+    st.flip44 = es.flip44;
+    st.edge_removals = es.edge_removals;
+    st.multi_face_removals = es.multi_face_removals;
+    st.flip22 = es.flip22;
+    st.all_boundary_removed = es.all_boundary_removed;
+    st.passes = es.passes;
+  }
+  st.tets_after = m.nt();
+  measure(m, st.kind4_after, st.alpha_worst_after);
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
+
+}  // namespace
+
+TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o, const LogFn& log) {
+  return run_passes(m, o, log, PassKind::AllBoundary);
+}
+
+TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
+  return run_passes(m, o, log, PassKind::Quality);
+}
+
+}  // namespace tetopt

@@ -1,0 +1,469 @@
+// Topological operations (topo.hpp): every test checks the invariants that a
+// topology change must keep — constrained triangles and coordinates
+// bit-identical, no inverted tet, per-region volume, valid adjacency, same
+// vertex set and Euler characteristic.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <set>
+#include <vector>
+
+#include "tetopt/generate.hpp"
+#include "tetopt/io.hpp"
+#include "tetopt/mesh.hpp"
+#include "tetopt/predicates.hpp"
+#include "tetopt/quality.hpp"
+#include "tetopt/topo.hpp"
+
+using namespace tetopt;
+
+namespace {
+
+using Tri = std::array<int32_t, 3>;
+
+struct Snapshot {
+  std::vector<double> xyz;
+  std::vector<Tri> constrained;  // sorted vertex triples
+  std::vector<std::pair<int32_t, double>> volumes;
+  std::vector<int32_t> verts;
+  long euler = 0;
+};
+
+Snapshot snap(const TetMesh& m) {
+  Snapshot s;
+  s.xyz = m.xyz;
+  std::set<Tri> c;
+  std::set<std::array<int32_t, 2>> edges;
+  std::set<Tri> faces;
+  std::set<int32_t> verts;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    for (int f = 0; f < 4; ++f) {
+      int32_t k[3];
+      face_key(m, t, f, k);
+      faces.insert({k[0], k[1], k[2]});
+      if (m.face_mask[t] & (1u << f)) c.insert({k[0], k[1], k[2]});
+    }
+    for (int e = 0; e < 6; ++e) {
+      int32_t a = v[kEdgeVertex[e][0]], b = v[kEdgeVertex[e][1]];
+      edges.insert({std::min(a, b), std::max(a, b)});
+    }
+    for (int k = 0; k < 4; ++k) verts.insert(v[k]);
+  }
+  s.constrained.assign(c.begin(), c.end());
+  s.volumes = region_volumes(m);
+  s.verts.assign(verts.begin(), verts.end());
+  s.euler = static_cast<long>(verts.size()) - static_cast<long>(edges.size()) + static_cast<long>(faces.size()) -
+            m.nt();
+  return s;
+}
+
+void expect_invariants(const Snapshot& before, const TetMesh& m) {
+  const Status st = validate(m, ValidateLevel::Full);
+  ASSERT_TRUE(st.ok()) << st.message;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    ASSERT_EQ(orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])), Sign::Positive) << t;
+  }
+  const Snapshot after = snap(m);
+  ASSERT_EQ(before.xyz.size(), after.xyz.size());
+  EXPECT_EQ(0, std::memcmp(before.xyz.data(), after.xyz.data(), before.xyz.size() * sizeof(double)));
+  EXPECT_EQ(before.constrained, after.constrained);
+  EXPECT_EQ(before.verts, after.verts);
+  EXPECT_EQ(before.euler, after.euler);
+  ASSERT_EQ(before.volumes.size(), after.volumes.size());
+  for (size_t i = 0; i < before.volumes.size(); ++i) {
+    EXPECT_EQ(before.volumes[i].first, after.volumes[i].first);
+    EXPECT_NEAR(before.volumes[i].second, after.volumes[i].second, 1e-12 * std::fabs(before.volumes[i].second));
+  }
+}
+
+// A mesh from points and tets (each tet made positive), topology built.
+TetMesh make_mesh(const std::vector<std::array<double, 3>>& pts, const std::vector<std::array<int32_t, 4>>& tets) {
+  TetMesh m;
+  for (const auto& p : pts) m.xyz.insert(m.xyz.end(), p.begin(), p.end());
+  for (auto t : tets) {
+    if (orient3d(m.point(t[0]), m.point(t[1]), m.point(t[2]), m.point(t[3])) == Sign::Negative)
+      std::swap(t[2], t[3]);
+    m.tets.insert(m.tets.end(), t.begin(), t.end());
+    m.tet_ref.push_back(1);
+  }
+  m.vert_ref.assign(pts.size(), 0);
+  EXPECT_TRUE(build_topology(m).ok());
+  return m;
+}
+
+double worst_alpha(const TetMesh& m) {
+  double w = 2;
+  for (int32_t t = 0; t < m.nt(); ++t) w = std::min(w, tet_alpha(m, t));
+  return w;
+}
+
+// Shell of n tets around edge a=(0,0,-h) .. b=(0,0,h); ring of radius R,
+// slightly non-planar.  Vertex 0 = a, 1 = b, 2.. = ring.
+std::vector<std::array<double, 3>> ring_points(int n, double R, double h) {
+  std::vector<std::array<double, 3>> p = {{0, 0, -h}, {0, 0, h}};
+  for (int i = 0; i < n; ++i) {
+    const double th = 2 * M_PI * i / n;
+    p.push_back({R * std::cos(th), R * std::sin(th), 0.05 * ((i * 7) % 3)});
+  }
+  return p;
+}
+TetMesh make_shell(int n, double R, double h) {
+  std::vector<std::array<int32_t, 4>> t;
+  for (int i = 0; i < n; ++i) t.push_back({0, 1, 2 + i, 2 + (i + 1) % n});
+  return make_mesh(ring_points(n, R, h), t);
+}
+
+// Finds tet and local edge of edge (a, b).
+bool find_edge(const TetMesh& m, int32_t a, int32_t b, int32_t& t, int& le) {
+  for (t = 0; t < m.nt(); ++t)
+    for (le = 0; le < 6; ++le) {
+      const int32_t x = m.tets[4 * t + kEdgeVertex[le][0]], y = m.tets[4 * t + kEdgeVertex[le][1]];
+      if ((x == a && y == b) || (x == b && y == a)) return true;
+    }
+  return false;
+}
+
+double alpha_pts(const std::vector<std::array<double, 3>>& p, int i, int j, int k, int l) {
+  return alpha(p[i].data(), p[j].data(), p[k].data(), p[l].data());
+}
+
+// Brute force over all triangulations of the ring polygon (independent of
+// the library's DP): best worst alpha of the 2n-4 tets.
+double brute_force_best(const std::vector<std::array<double, 3>>& p, int n) {
+  std::function<std::vector<double>(int, int)> rec = [&](int i, int j) -> std::vector<double> {
+    if (j - i < 2) return {2.0};
+    std::vector<double> out;
+    for (int k = i + 1; k < j; ++k) {
+      const double tq = std::min(alpha_pts(p, 2 + i, 2 + k, 2 + j, 1), alpha_pts(p, 2 + i, 2 + j, 2 + k, 0));
+      for (double l : rec(i, k))
+        for (double r : rec(k, j)) out.push_back(std::min({tq, l, r}));
+    }
+    return out;
+  };
+  double best = -2;
+  for (double v : rec(0, n - 1)) best = std::max(best, v);
+  return best;
+}
+
+bool has_vertex(const TetMesh& m, int32_t t, int32_t v) {
+  for (int k = 0; k < 4; ++k)
+    if (m.tets[4 * t + k] == v) return true;
+  return false;
+}
+
+}  // namespace
+
+TEST(Topo, ThreeTwoRemovesInteriorEdge) {
+  TetMesh m = make_shell(3, 0.5, 1.0);
+  const Snapshot s = snap(m);
+  const double before = worst_alpha(m);
+  int32_t t;
+  int le;
+  ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+  EXPECT_EQ(m.tet_kind[t], 4);
+  EXPECT_EQ(flip_32(m, t, le), TopoResult::Applied);
+  ASSERT_EQ(m.nt(), 2);
+  expect_invariants(s, m);
+  EXPECT_GT(worst_alpha(m), before);
+  EXPECT_FALSE(find_edge(m, 0, 1, t, le));
+}
+
+TEST(Topo, ThreeTwoRefusedWhenWorse) {
+  TetMesh m = make_shell(3, 2.0, 0.3);  // the 3 tets are better than the 2
+  const auto tets = m.tets;
+  int32_t t;
+  int le;
+  ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+  EXPECT_EQ(flip_32(m, t, le), TopoResult::NotImproved);
+  EXPECT_EQ(m.tets, tets);
+  // Boundary edges are locked, and 2-2 is always refused.
+  ASSERT_TRUE(find_edge(m, 0, 2, t, le));
+  EXPECT_EQ(remove_edge(m, t, le), TopoResult::BoundaryLocked);
+  TopoEditor ed(m, {});
+  EXPECT_EQ(ed.flip_22(t, le), TopoResult::BoundaryLocked);
+  ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+  EXPECT_EQ(ed.flip_22(t, le), TopoResult::NotApplicable);
+}
+
+TEST(Topo, TwoThreeAddsEdge) {
+  // Two flat tets on a wide triangle; the 2-3 gives three better tets.
+  auto p = ring_points(3, 2.0, 0.3);
+  TetMesh m = make_mesh(p, {{0, 2, 3, 4}, {1, 2, 3, 4}});
+  const Snapshot s = snap(m);
+  const double before = worst_alpha(m);
+  int32_t t = 0;
+  int lf = 0;
+  for (; lf < 4; ++lf)
+    if (m.adj[4 * t + lf] >= 0) break;
+  ASSERT_LT(lf, 4);
+  EXPECT_EQ(flip_23(m, t, lf), TopoResult::Applied);
+  ASSERT_EQ(m.nt(), 3);
+  expect_invariants(s, m);
+  EXPECT_GT(worst_alpha(m), before);
+  for (int32_t u = 0; u < 3; ++u) EXPECT_TRUE(has_vertex(m, u, 0) && has_vertex(m, u, 1));
+  // Across a boundary face: locked.
+  TetMesh m2 = make_mesh(p, {{0, 2, 3, 4}, {1, 2, 3, 4}});
+  int bf = 0;
+  while (m2.adj[bf] >= 0) ++bf;
+  EXPECT_EQ(flip_23(m2, 0, bf), TopoResult::BoundaryLocked);
+}
+
+TEST(Topo, TwoThreeRefusedWhenWorse) {
+  auto p = ring_points(3, 0.5, 1.0);
+  TetMesh m = make_mesh(p, {{0, 2, 3, 4}, {1, 2, 3, 4}});
+  const auto tets = m.tets;
+  int lf = 0;
+  while (m.adj[lf] < 0) ++lf;
+  EXPECT_EQ(flip_23(m, 0, lf), TopoResult::NotImproved);
+  EXPECT_EQ(m.tets, tets);
+}
+
+TEST(Topo, EdgeRemovalMatchesBruteForceTriangulation) {
+  int applied = 0;
+  for (int n = 4; n <= 7; ++n)
+    for (double h : {1.0, 1.5}) {
+      SCOPED_TRACE("n=" + std::to_string(n) + " h=" + std::to_string(h));
+      TetMesh m = make_shell(n, 0.5, h);
+      const Snapshot s = snap(m);
+      const double before = worst_alpha(m);
+      const double best = brute_force_best(ring_points(n, 0.5, h), n);
+      int32_t t;
+      int le;
+      ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+      TopoOptions o;
+      const TopoResult r = remove_edge(m, t, le, o);
+      if (best > before + o.margin) {
+        ASSERT_EQ(r, TopoResult::Applied);
+        ++applied;
+        EXPECT_EQ(m.nt(), 2 * n - 4);
+        expect_invariants(s, m);
+        EXPECT_NEAR(worst_alpha(m), best, 1e-12);
+        EXPECT_FALSE(find_edge(m, 0, 1, t, le));
+      } else {
+        EXPECT_EQ(r, TopoResult::NotImproved);
+        EXPECT_EQ(m.nt(), n);
+      }
+    }
+  EXPECT_GE(applied, 5);
+}
+
+TEST(Topo, EdgeRemovalLimitsAndLocks) {
+  TetMesh m = make_shell(7, 0.5, 1.5);
+  int32_t t;
+  int le;
+  ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+  TopoOptions o;
+  o.max_shell = 6;
+  EXPECT_EQ(remove_edge(m, t, le, o), TopoResult::ShellTooLarge);
+  EXPECT_EQ(m.nt(), 7);
+  // Listed edge: never removed.
+  TetMesh m2 = make_shell(5, 0.5, 1.0);
+  m2.edges = {0, 1};
+  m2.edge_ref = {3};
+  ASSERT_TRUE(build_topology(m2).ok());
+  ASSERT_TRUE(find_edge(m2, 0, 1, t, le));
+  EXPECT_EQ(remove_edge(m2, t, le), TopoResult::BoundaryLocked);
+  // Two regions in the shell: the faces between them are interfaces.
+  TetMesh m3 = make_shell(5, 0.5, 1.0);
+  m3.tet_ref[2] = 2;
+  ASSERT_TRUE(build_topology(m3).ok());
+  ASSERT_TRUE(find_edge(m3, 0, 1, t, le));
+  EXPECT_EQ(remove_edge(m3, t, le), TopoResult::RegionMismatch);
+  EXPECT_EQ(m3.nt(), 5);
+  // flip_32 / flip_44 insist on their shell size.
+  TetMesh m4 = make_shell(5, 0.5, 1.0);
+  ASSERT_TRUE(find_edge(m4, 0, 1, t, le));
+  EXPECT_EQ(flip_32(m4, t, le), TopoResult::NotApplicable);
+}
+
+TEST(Topo, FlipFourFour) {
+  TetMesh m = make_shell(4, 0.5, 1.0);
+  const Snapshot s = snap(m);
+  int32_t t;
+  int le;
+  ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+  TopoEditor ed(m, {});
+  EXPECT_EQ(ed.flip_44(t, le), TopoResult::Applied);
+  EXPECT_EQ(ed.stats().flip44, 1);
+  ed.finish();
+  EXPECT_EQ(m.nt(), 4);
+  expect_invariants(s, m);
+}
+
+TEST(Topo, MultiFaceRemovalInvertsEdgeRemoval) {
+  // Fan triangulation of a 5-ring sandwiched between a and b; the 5 tets
+  // around ab are much better (see EdgeRemoval tests for the reverse case).
+  const int n = 5;
+  auto p = ring_points(n, 1.0, 0.6);
+  std::vector<std::array<int32_t, 4>> tets;
+  for (int k = 1; k + 1 < n; ++k) {
+    tets.push_back({2, 2 + k, 2 + k + 1, 1});
+    tets.push_back({2, 2 + k + 1, 2 + k, 0});
+  }
+  TetMesh m = make_mesh(p, tets);
+  const Snapshot s = snap(m);
+  double shell = 2;
+  for (int i = 0; i < n; ++i) shell = std::min(shell, alpha_pts(p, 0, 1, 2 + i, 2 + (i + 1) % n));
+  // Start at tet 1 (contains a = vertex 0), face opposite a.
+  int lf = 0;
+  while (m.tets[4 * 1 + lf] != 0) ++lf;
+  TopoEditor ed(m, {});
+  EXPECT_EQ(ed.remove_multi_face(1, lf), TopoResult::Applied);
+  EXPECT_EQ(ed.stats().multi_face_removals, 1);
+  ed.finish();
+  ASSERT_EQ(m.nt(), n);
+  expect_invariants(s, m);
+  for (int32_t t = 0; t < n; ++t) EXPECT_TRUE(has_vertex(m, t, 0) && has_vertex(m, t, 1));
+  EXPECT_NEAR(worst_alpha(m), shell, 1e-12);
+}
+
+TEST(Topo, EditorKeepsAdjacencyAndMasksIncrementally) {
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 4;
+  bo.jitter = 0.4;
+  bo.seed = 7;
+  bo.regions = 2;
+  TetMesh m = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(m).ok());
+  TopoOptions o;
+  o.quality_threshold = 0.5;
+  TopoEditor ed(m, o);
+  int applied = 0;
+  for (int32_t t = 0; t < m.nt(); ++t)
+    if (ed.alive(t) && ed.cached_alpha(t) < 0.5) applied += ed.improve_tet(t, true) == TopoResult::Applied;
+  EXPECT_GT(applied, 0);
+  // Before finish(): every live tet's adjacency is symmetric and its mask is
+  // what classify() would say.
+  std::set<Tri> listed;
+  for (int32_t i = 0; i < m.ntri(); ++i) {
+    Tri k{m.tris[3 * i], m.tris[3 * i + 1], m.tris[3 * i + 2]};
+    std::sort(k.begin(), k.end());
+    listed.insert(k);
+  }
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    if (!ed.alive(t)) continue;
+    int kind = 0;
+    for (int k = 0; k < 4; ++k) kind += m.vert_constrained[m.tets[4 * t + k]];
+    EXPECT_EQ(m.tet_kind[t], kind);
+    EXPECT_NEAR(ed.cached_alpha(t), tet_alpha(m, t), 1e-15);
+    for (int f = 0; f < 4; ++f) {
+      const int32_t nb = m.adj[4 * t + f];
+      if (nb >= 0) {
+        ASSERT_TRUE(ed.alive(nb / 4));
+        ASSERT_EQ(m.adj[nb], 4 * t + f);
+      }
+      int32_t k[3];
+      face_key(m, t, f, k);
+      const bool c = nb < 0 || m.tet_ref[nb / 4] != m.tet_ref[t] || listed.count({k[0], k[1], k[2]});
+      EXPECT_EQ(((m.face_mask[t] >> f) & 1u) != 0, c) << t << " " << f;
+    }
+  }
+}
+
+TEST(Topo, FlipPassOnJitteredBoxKeepsInvariants) {
+  for (int regions : {1, 2}) {
+    SCOPED_TRACE(regions);
+    BoxMeshOptions bo;
+    bo.nx = 6; bo.ny = 5; bo.nz = 4;
+    bo.jitter = 0.45;
+    bo.seed = 11;
+    bo.regions = regions;
+    TetMesh m = make_box_mesh(bo);
+    ASSERT_TRUE(build_topology(m).ok());
+    const Snapshot s = snap(m);
+    TopoOptions o;
+    o.quality_threshold = 0.4;
+    const TopoStats st = flip_pass(m, o);
+    ASSERT_TRUE(st.status.ok());
+    EXPECT_GT(st.applied(), 0);
+    expect_invariants(s, m);
+    // Every commit raises the worst alpha of its cavity, so the global worst
+    // cannot drop.
+    EXPECT_GE(st.alpha_worst_after, st.alpha_worst_before);
+    EXPECT_EQ(st.tets_after, m.nt());
+    EXPECT_NEAR(st.alpha_worst_after, worst_alpha(m), 0);
+  }
+}
+
+TEST(Topo, FlipPassIsDeterministic) {
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 5;
+  bo.jitter = 0.45;
+  bo.seed = 3;
+  TetMesh a = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(a).ok());
+  TetMesh b = a;
+  flip_pass(a, {});
+  flip_pass(b, {});
+  EXPECT_EQ(a.tets, b.tets);
+  EXPECT_EQ(a.adj, b.adj);
+}
+
+TEST(Topo, AllBoundaryTetsOnBox) {
+  // Two-region box: kind-4 tets along the surface and the interface.
+  for (bool must : {true, false}) {
+    SCOPED_TRACE(must);
+    BoxMeshOptions bo;
+    bo.nx = 4; bo.ny = 4; bo.nz = 3;
+    bo.jitter = 0.3;
+    bo.regions = 2;
+    TetMesh m = make_box_mesh(bo);
+    ASSERT_TRUE(build_topology(m).ok());
+    const Snapshot s = snap(m);
+    TopoOptions o;
+    o.must_improve = must;
+    o.worsen_bound = 0.2;
+    const TopoStats st = remove_all_boundary_tets(m, o);
+    ASSERT_TRUE(st.status.ok());
+    EXPECT_GT(st.kind4_before, 0);
+    expect_invariants(s, m);
+    if (must) {
+      EXPECT_GE(st.alpha_worst_after, st.alpha_worst_before);
+    } else {
+      EXPECT_GT(st.all_boundary_removed, 0);
+      EXPECT_LT(st.kind4_after, st.kind4_before);
+      EXPECT_GE(st.alpha_worst_after, st.alpha_worst_before - o.worsen_bound);
+    }
+  }
+}
+
+TEST(Topo, AllBoundaryShellOfThreeIsRemoved) {
+  // Every tet of the shell is kind 4 (all vertices on the boundary).
+  TetMesh m = make_shell(3, 0.5, 1.0);
+  const Snapshot s = snap(m);
+  const TopoStats st = remove_all_boundary_tets(m, {});
+  EXPECT_EQ(st.kind4_before, 3);
+  EXPECT_EQ(st.kind4_after, 2);
+  EXPECT_EQ(st.flip32, 1);
+  expect_invariants(s, m);
+}
+
+TEST(Topo, HingeRawRealMesh) {
+  const std::string path = std::string(TETOPT_SOURCE_DIR) + "/../shared/meshes/hinge_raw/hinge_raw.mesh";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
+  TetMesh m;
+  const Status rs = read_mesh(path, m);
+  if (!rs.ok()) GTEST_SKIP() << "reader not available: " << rs.message;
+  ASSERT_TRUE(build_topology(m).ok());
+  const Snapshot s = snap(m);
+  for (bool must : {true, false}) {
+    TetMesh w = m;
+    TopoOptions o;
+    o.must_improve = must;
+    o.worsen_bound = 0.05;
+    const TopoStats a = remove_all_boundary_tets(w, o);
+    const TopoStats b = flip_pass(w, o);
+    ASSERT_TRUE(a.status.ok() && b.status.ok());
+    expect_invariants(s, w);
+    RecordProperty(must ? "strict" : "may_worsen",
+                   "alpha " + std::to_string(a.alpha_worst_before) + " -> " + std::to_string(b.alpha_worst_after) +
+                       ", kind4 " + std::to_string(a.kind4_before) + " -> " + std::to_string(b.kind4_after));
+    if (must) { EXPECT_GT(b.alpha_worst_after, a.alpha_worst_before); }
+  }
+}
