@@ -14,6 +14,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "tetopt/io.hpp"
+
 namespace tetopt::gvscan {
 
 inline bool is_space(char c) {
@@ -214,3 +216,9 @@ inline bool base64_decode(std::string_view in, std::string& out) {
 }
 
 }  // namespace tetopt::gvscan
+
+namespace tetopt::detail {
+/// format_vtu with a choice of encoding: binary = base64 DataArrays (what
+/// format_vtu writes), otherwise format="ascii" (17 significant digits).
+Status format_vtu_encoded(const TetMesh& m, std::string& out, bool binary);
+}  // namespace tetopt::detail
