@@ -400,18 +400,22 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
 // combinatorial check that the new tets fill exactly the cavity.
 TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) {
   c.k4_new = 0;
-  double worst = kInf;
+  double worst = kInf, worst_k4 = kInf;
   for (int i = 0; i < c.n_new; ++i) {
     const int32_t* q = c.quad[i];
-    c.k4_new += (m_.vert_constrained[q[0]] + m_.vert_constrained[q[1]] + m_.vert_constrained[q[2]] +
-                 m_.vert_constrained[q[3]]) == 4;
+    const bool k4 = (m_.vert_constrained[q[0]] + m_.vert_constrained[q[1]] + m_.vert_constrained[q[2]] +
+                     m_.vert_constrained[q[3]]) == 4;
+    c.k4_new += k4;
     c.new_alpha[i] = alpha(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]));
     worst = std::min(worst, c.new_alpha[i]);
+    if (k4) worst_k4 = std::min(worst_k4, c.new_alpha[i]);
   }
   c.new_min = worst;
   bool ok = c.new_min > c.old_min + o_.margin;
+  // May-worsen policy (Liu et al. §4): fewer kind-4 tets, and only tets that
+  // smoothing can still fix (kind < 4) may fall below the old worst alpha.
   if (!ok && !strict && !o_.must_improve)
-    ok = c.k4_new < c.k4_old && c.new_min >= c.old_min - o_.worsen_bound;
+    ok = c.k4_new < c.k4_old && c.new_min >= c.old_min - o_.worsen_bound && worst_k4 >= c.old_min;
   if (!ok) return c.new_min > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
   for (int i = 0; i < c.n_new; ++i) {
     const int32_t* q = c.quad[i];
@@ -654,6 +658,8 @@ TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
 void TopoEditor::finish() {
   if (finished_) return;
   finished_ = true;
+  stats_.tets_after = m_.nt();
+  if (stats_.applied() == 0) return;  // nothing changed: derived topology is still current
   // Compact tombstones: move the last live tet into each hole (ascending).
   std::sort(free_.begin(), free_.end());
   int32_t nt = m_.nt();
@@ -711,15 +717,6 @@ bool topology_current(const TetMesh& m) {
          m.vert_constrained.size() == static_cast<size_t>(m.nv());
 }
 
-void measure(const TetMesh& m, int64_t& k4, double& worst) {
-  k4 = 0;
-  worst = kInf;
-  for (int32_t t = 0; t < m.nt(); ++t) {
-    k4 += m.tet_kind[t] == 4;
-    worst = std::min(worst, tet_alpha(m, t));
-  }
-}
-
 enum class PassKind { AllBoundary, Quality };
 
 TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKind kind) {
@@ -730,9 +727,13 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
     if (!st.status) return st;
   }
   st.tets_before = m.nt();
-  measure(m, st.kind4_before, st.alpha_worst_before);
   {
     TopoEditor ed(m, o);
+    st.alpha_worst_before = kInf;
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      st.kind4_before += m.tet_kind[t] == 4;
+      st.alpha_worst_before = std::min(st.alpha_worst_before, ed.cached_alpha(t));
+    }
     std::vector<int32_t> work;
     for (int p = 0; p < o.passes; ++p) {
       work.clear();
@@ -762,7 +763,11 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
                                 " tets visited, " + std::to_string(changed) + " operations applied");
       if (changed == 0) break;
     }
+    st.alpha_worst_after = kInf;
+    for (int32_t t = 0; t < m.nt(); ++t)
+      if (ed.alive(t)) st.alpha_worst_after = std::min(st.alpha_worst_after, ed.cached_alpha(t));
     ed.finish();
+    for (int32_t t = 0; t < m.nt(); ++t) st.kind4_after += m.tet_kind[t] == 4;
     const TopoStats& es = ed.stats();
     st.flip23 = es.flip23;
     st.flip32 = es.flip32;
@@ -774,7 +779,6 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
     st.passes = es.passes;
   }
   st.tets_after = m.nt();
-  measure(m, st.kind4_after, st.alpha_worst_after);
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

@@ -94,8 +94,11 @@ struct TopoOptions {
   /// point, §4: the transformation need not improve at once, smoothing the
   /// vertices it brings in does): remove_all_boundary_tets and the single
   /// operations may also accept a change that lowers the number of kind-4
-  /// tets in the cavity while the worst alpha drops by at most worsen_bound.
-  /// flip_pass always requires improvement.
+  /// tets in the cavity while the worst alpha drops by at most worsen_bound,
+  /// provided every new tet that is still kind 4 (which smoothing cannot fix)
+  /// is no worse than the worst tet replaced.  The kind-4 count falls with
+  /// every such change, so a pass cannot cycle on them.  flip_pass always
+  /// requires improvement.
   bool must_improve = true;
   double worsen_bound = 0.0;  ///< allowed drop of the worst alpha (absolute), see must_improve
   int max_shell = 12;         ///< largest shell / ring / sandwich size tried (<= kMaxShell)
