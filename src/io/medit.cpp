@@ -217,19 +217,35 @@ constexpr SkipKwd kSkip[] = {
     {"BoundingBox", 6, false, false},
 };
 
+/// Whether a token is a keyword this reader knows (a lying count runs into one).
+bool is_keyword(std::string_view w) {
+  static constexpr const char* kKnown[] = {"MeshVersionFormatted", "Dimension", "Vertices", "Edges", "Triangles",
+                                           "Tetrahedra", "Corners", "Ridges", "RequiredVertices", "RequiredEdges",
+                                           "RequiredTriangles", "Identifier", "Geometry", "End"};
+  for (const char* k : kKnown)
+    if (w == k) return true;
+  for (const SkipKwd& k : kSkip)
+    if (w == k.name) return true;
+  return false;
+}
+
 class MeditAsciiReader {
  public:
   MeditAsciiReader(std::string_view data, const std::string& name) : lx_(data), name_(name) {}
 
   Status run(TetMesh& out) {
-    bool have_dim = false, have_vertices = false, have_tets = false;
+    bool have_dim = false, have_vertices = false, have_tets = false, ended = false;
     std::vector<std::string> seen;
+    if (lx_.eof()) return fail(ErrorCode::Parse, 0, "empty file (missing Dimension)");
     while (!lx_.eof()) {
       const long kw_line = lx_.line();
       const std::string_view kw = lx_.word();
       if (kw.empty() || !std::isalpha(static_cast<unsigned char>(kw[0])))
         return fail(ErrorCode::Parse, kw_line, "expected a keyword, found '" + shorten(kw) + "'");
-      if (kw == "End") break;
+      if (kw == "End") {
+        ended = true;
+        break;
+      }
       if (kw != "MeshVersionFormatted" && kw != "Dimension") {
         if (std::find(seen.begin(), seen.end(), kw) != seen.end())
           return fail(ErrorCode::Parse, kw_line, "second " + std::string(kw) + " section");
@@ -285,6 +301,9 @@ class MeditAsciiReader {
       }
       if (!s) return s;
     }
+    // libMeshb tolerates a missing End, but every writer emits it and without
+    // it a file cut at a record boundary would read as a smaller mesh.
+    if (!ended) return fail(ErrorCode::Parse, lx_.line(), "missing End keyword (truncated file?)");
     if (!have_dim) return fail(ErrorCode::Parse, 0, "missing Dimension");
     if (!have_vertices) return fail(ErrorCode::Parse, 0, "no Vertices section");
     if (!have_tets || m_.tets.empty())
@@ -324,7 +343,7 @@ class MeditAsciiReader {
     if (static_cast<uint64_t>(n) > room)
       return fail(ErrorCode::Parse, lx_.line(),
                   std::string(kw) + ": count " + std::to_string(n) + " is more than the rest of the file can hold (" +
-                      std::to_string(room) + " records at most)");
+                      std::to_string(room) + " records at most): truncated file or lying count");
     if (n > kMaxId)
       return fail(ErrorCode::Unsupported, lx_.line(),
                   std::string(kw) + ": count " + std::to_string(n) + " exceeds the 32-bit index range");
@@ -338,8 +357,7 @@ class MeditAsciiReader {
                   std::string("unexpected end of file in ") + kw + " record " + std::to_string(rec) + " of " +
                       std::to_string(count) + " (truncated file?)");
     const std::string_view tok = lx_.peek();
-    if (std::isalpha(static_cast<unsigned char>(tok[0])) && tok != "nan" && tok != "inf" && tok != "NaN" &&
-        tok != "Inf" && tok != "infinity")
+    if (is_keyword(tok))
       return fail(ErrorCode::Parse, lx_.line(),
                   std::string(kw) + ": the count says " + std::to_string(count) + " records but record " +
                       std::to_string(rec) + " starts at '" + shorten(tok) + "' (count too large?)");

@@ -144,7 +144,7 @@ class TetgenReader {
     if (static_cast<uint64_t>(n) > room)
       return fail(ErrorCode::Parse, ext, r.line(),
                   std::to_string(n) + " " + what + " claimed, more than the rest of the file can hold (" +
-                      std::to_string(room) + " at most)");
+                      std::to_string(room) + " at most): truncated file or lying count");
     if (n > kMaxId) return fail(ErrorCode::Unsupported, ext, r.line(), std::string("too many ") + what + " for 32-bit ids");
     return Status::success();
   }
