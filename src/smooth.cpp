@@ -557,6 +557,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log) {
   uint32_t epoch = 0;
   std::vector<int32_t> active, moved;
   std::mt19937_64 rng(o.seed);
+  const bool maxmin = o.optimizer == Optimizer::MaxMin;
 
   auto is_free = [&](int32_t u) { return !m.vert_constrained[u] && m.star_begin(u) != m.star_end(u); };
   auto touches_poor = [&](int32_t u) {
@@ -588,13 +589,27 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log) {
       // Fisher-Yates with the engine's raw output (portable, unlike std::shuffle).
       for (size_t i = active.size(); i > 1; --i) std::swap(active[i - 1], active[rng() % i]);
       moved.clear();
+      const int64_t applied_before = st.moves_applied;
       for (const int32_t v : active) {
+        // The vertex's own measure before and after, for reactivate_gain.
+        auto own = [&] {
+          double w = kInf;
+          if (!maxmin) return vertex_objective(m, v, C);
+          for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) w = std::min(w, qa[*it]);
+          return w;
+        };
+        const double before = o.reactivate_gain > 0 ? own() : 0.0;
         const SmoothResult r = smooth_vertex(m, v, o);
         st.moves_tried++;
         if (r == SmoothResult::Applied) {
           st.moves_applied++;
-          moved.push_back(v);
           for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) qa[*it] = tet_alpha(m, *it);
+          if (o.reactivate_gain > 0) {
+            const double after = own();
+            const double gain = maxmin ? after - before : before - after;
+            if (!(gain >= o.reactivate_gain * std::fabs(maxmin ? before : after))) continue;
+          }
+          moved.push_back(v);
         } else if (r == SmoothResult::NotImproved) {
           st.not_improved++;
         } else if (r == SmoothResult::Inverted) {
@@ -604,12 +619,13 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log) {
       st.sweeps++;
       if (log) {
         char buf[200];
-        std::snprintf(buf, sizeof buf, "smooth phase %d sweep %d: %zu active, %zu moved, worst alpha %.6g",
-                      phase + 1, sweep + 1, active.size(), moved.size(),
+        std::snprintf(buf, sizeof buf, "smooth phase %d sweep %d: %zu active, %lld moved (%zu re-activating), worst alpha %.6g",
+                      phase + 1, sweep + 1, active.size(),
+                      static_cast<long long>(st.moves_applied - applied_before), moved.size(),
                       *std::min_element(qa.begin(), qa.end()));
         log(LogLevel::Progress, buf);
       }
-      if (moved.empty()) break;
+      if (moved.empty()) break;  // nothing (worth re-visiting) changed
       active.clear();
       ++epoch;
       for (const int32_t v : moved)

@@ -53,8 +53,9 @@
 //   threshold gamma, visited in an order shuffled by std::mt19937_64(seed)
 //   (own Fisher-Yates, so the order does not depend on the standard library).
 //   After a sweep, the next active set is the free vertices of tets around the
-//   vertices that moved that still touch a tet with alpha < gamma (vertices
-//   whose star did not change would give the same answer again).  Phase 1 ends
+//   vertices that moved (by a gain of at least reactivate_gain) that still
+//   touch a tet with alpha < gamma (vertices whose star did not change would
+//   give the same answer again).  Phase 1 ends
 //   after `iterations` sweeps or when a sweep moves nothing.  Phase 2 (only
 //   with all_vertices) does the same over every free vertex without the alpha
 //   filter, with its own budget of `iterations` sweeps.  Output is a pure
@@ -105,10 +106,15 @@ struct SmoothOptions {
   bool all_vertices = false;   ///< after the poor-tet phase, sweep every free vertex
   double margin = 1e-9;        ///< relative improvement a committed move must bring
   bool protect_worst = true;   ///< also reject moves that lower the star's worst alpha
-  double line_tol = 1e-4;      ///< epsilon of Alg. 2, relative to the star's mean edge length
-  double step_tol = 1e-6;      ///< stop descending when a step gains less (relative)
-  int max_steps = 10;          ///< descent steps per vertex solve
+  double line_tol = 1e-2;      ///< epsilon of Alg. 2, relative to the star's mean edge length (finer: measured gain < 1e-4 of f)
+  double step_tol = 1e-4;      ///< stop descending when a step gains less (relative)
+  int max_steps = 8;           ///< descent steps per vertex solve
   double active_tol = 1e-3;    ///< MaxMin: tets within this (relative) of the worst are active
+  /// A committed move re-activates its neighbours for the next sweep only if
+  /// it improved the vertex's own objective (Paper: f_v; MaxMin: the star's
+  /// worst alpha) by at least this fraction; smaller moves do not start a
+  /// new wave of work.  0 re-activates after every move.
+  double reactivate_gain = 1e-3;
 };
 
 /// Counters and measurements of one smooth_pass.
