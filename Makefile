@@ -10,7 +10,7 @@ TETOPT   := $(BUILD)/tetopt
 # Debian 12 packages tetopt needs to build, test, demo and benchmark.
 DEB_PKGS := build-essential cmake libcgal-dev libgmp-dev libmpfr-dev libboost-dev \
             libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen \
-            python3 python3-numpy python3-meshio python3-pytest python3-gmsh \
+            python3 python3-numpy python3-scipy python3-meshio python3-pytest python3-gmsh \
             python3-dev pybind11-dev libtbb-dev
 
 .PHONY: all deps build demo test bench clean python

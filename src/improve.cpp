@@ -35,7 +35,11 @@ class Driver {
  public:
   Driver(TetMesh& m, const ImproveOptions& o, ImproveReport& r, const LogFn& log,
          const std::atomic<bool>* interrupted)
-      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted) {}
+      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted) {
+    // The passes' own Info lines are detail at the driver's level.
+    if (log_)
+      sub_log_ = [this](LogLevel l, const std::string& s) { log_(l == LogLevel::Info ? LogLevel::Debug : l, s); };
+  }
 
   bool stopped() const { return stop_ && stop_->load(); }
 
@@ -58,7 +62,7 @@ class Driver {
 
   void smooth(const SmoothOptions& so) {
     const auto t = Clock::now();
-    SmoothStats st = smooth_pass(m_, so, log_);
+    SmoothStats st = smooth_pass(m_, so, sub_log_);
     r_.smooth_moves += st.moves_applied;
     r_.smooth_tried += st.moves_tried;
     r_.seconds_smooth += since(t);
@@ -82,7 +86,7 @@ class Driver {
     to.worsen_bound = strict ? 0.0 : 0.5;
     to.quality_threshold = gamma;
     to.passes = 3;
-    TopoStats st = remove_all_boundary_tets(m_, to, log_);
+    TopoStats st = remove_all_boundary_tets(m_, to, sub_log_);
     add(st, since(t));
     return st.status;
   }
@@ -92,7 +96,7 @@ class Driver {
     TopoOptions to;
     to.quality_threshold = gamma;
     to.passes = 3;
-    TopoStats st = flip_pass(m_, to, log_);
+    TopoStats st = flip_pass(m_, to, sub_log_);
     add(st, since(t));
     return st.status;
   }
@@ -172,6 +176,7 @@ class Driver {
   const ImproveOptions& o_;
   ImproveReport& r_;
   const LogFn& log_;
+  LogFn sub_log_;
   const std::atomic<bool>* stop_;
 };
 }  // namespace

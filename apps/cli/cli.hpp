@@ -22,6 +22,7 @@ void on_sigint(int);
 int cmd_quality(const std::vector<std::string>& args);
 int cmd_convert(const std::vector<std::string>& args);
 int cmd_improve(const std::vector<std::string>& args);
+int cmd_generate(const std::vector<std::string>& args);
 
 /// Reads IN, normalises orientation, builds topology; prints the error (one
 /// line) and returns false on failure.  Reports inverted/flat tets on stderr.

@@ -26,6 +26,8 @@ const char* kMainHelp =
     "                 improve the mesh; boundary, interfaces and refs stay bit-identical\n"
     "  convert IN OUT [--msh-version 22|41] [--binary]\n"
     "                 convert between formats (by extension)\n"
+    "  generate OUT [--cells NX NY NZ] [--jitter J] [--regions 2]\n"
+    "                 write a box test mesh made here (Kuhn-split cubes)\n"
     "\n"
     "formats (by extension): .mesh .meshb (Medit), .msh (Gmsh 2.2/4.1), .vtk .vtu (VTK),\n"
     "                        .node/.ele[/.face] (TetGen)\n"
@@ -62,6 +64,7 @@ int main(int argc, char** argv) {
   if (cmd == "quality") return tetopt_cli::cmd_quality(args);
   if (cmd == "convert") return tetopt_cli::cmd_convert(args);
   if (cmd == "improve") return tetopt_cli::cmd_improve(args);
+  if (cmd == "generate") return tetopt_cli::cmd_generate(args);
   std::fprintf(stderr, "tetopt: unknown command '%s'\n\n%s", cmd.c_str(), kMainHelp);
   return tetopt_cli::kExitUsage;
 }
