@@ -739,14 +739,14 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
       work.clear();
       for (int32_t t = 0; t < m.nt(); ++t) {
         if (!ed.alive(t)) continue;
-        if (kind == PassKind::AllBoundary ? m.tet_kind[t] == 4 : ed.cached_alpha(t) < o.quality_threshold)
+        if (ed.cached_alpha(t) < o.quality_threshold && (kind == PassKind::Quality || m.tet_kind[t] == 4))
           work.push_back(t);
       }
       int64_t changed = 0;
       for (int32_t t : work) {
         if (!ed.alive(t)) continue;
         if (kind == PassKind::AllBoundary) {
-          if (m.tet_kind[t] != 4) continue;
+          if (m.tet_kind[t] != 4 || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
           if (ed.improve_tet(t, false) == TopoResult::Applied) {
             ++changed;
             ++ed.stats().all_boundary_removed;

@@ -103,7 +103,9 @@ struct TopoOptions {
   double worsen_bound = 0.0;  ///< allowed drop of the worst alpha (absolute), see must_improve
   int max_shell = 12;         ///< largest shell / ring / sandwich size tried (<= kMaxShell)
   int passes = 5;             ///< a pass function stops after this many passes or a pass with no change
-  double quality_threshold = 0.3;  ///< flip_pass visits only tets with alpha below this
+  /// Passes visit only tets with alpha below this (the paper's gamma, the
+  /// set Phi of §2); values above 1 visit every (kind-4) tet.
+  double quality_threshold = 0.3;
   bool use_face_swap = true;       ///< 2-3 flips (multi-face removal with one face)
   bool use_edge_removal = true;    ///< edge removal, 3-2 and 4-4 included
   bool use_multi_face = true;      ///< multi-face removal with two or more faces
@@ -158,7 +160,10 @@ class TopoEditor {
 
   /// Algorithm 4 of Liu et al. on one tet: tries edge removal on each of
   /// t's edges, face swaps and multi-face removals across its unconstrained
-  /// faces, and commits the acceptable option with the best worst alpha.
+  /// faces, and commits the acceptable option with the best worst alpha
+  /// (ties: fewer kind-4 tets, then the first tried).  strict: demand
+  /// improvement even when TopoOptions::must_improve is false (flip_pass).
+  /// Returns Applied, or the most telling refusal among the options.
   TopoResult improve_tet(int32_t t, bool strict);
 
   bool alive(int32_t t) const;      ///< t is a live tet (not a tombstone)
@@ -199,8 +204,8 @@ TopoResult flip_32(TetMesh& m, int32_t t, int le, const TopoOptions& o = {});
 TopoResult remove_edge(TetMesh& m, int32_t t, int le, const TopoOptions& o = {});
 TopoResult remove_multi_face(TetMesh& m, int32_t t, int lf, const TopoOptions& o = {});
 
-/// Liu et al. 2012 Algorithm 4 over every all-boundary tet (tet_kind == 4),
-/// repeated for o.passes passes or until a pass changes nothing.  Builds the
+/// Liu et al. 2012 Algorithm 4 over every all-boundary tet (tet_kind == 4)
+/// with alpha below o.quality_threshold, in index order, repeated for o.passes passes or until a pass changes nothing.  Builds the
 /// topology first if it is missing.  Policy: o.must_improve / worsen_bound.
 TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o = {}, const LogFn& log = {});
 

@@ -191,6 +191,26 @@ TEST(Topo, ThreeTwoRefusedWhenWorse) {
   EXPECT_EQ(ed.flip_22(t, le), TopoResult::NotApplicable);
 }
 
+TEST(Topo, NeverCreatesAListedTriangle) {
+  // The 3-2 would create face (r0, r1, r2); listing it as a triangle (not a
+  // face of the mesh now) must lock the flip, which otherwise applies.
+  TetMesh m = make_shell(3, 0.5, 1.0);
+  m.tris = {2, 3, 4};
+  m.tri_ref = {5};
+  ASSERT_TRUE(build_topology(m).ok());
+  int32_t t;
+  int le;
+  ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+  EXPECT_EQ(flip_32(m, t, le), TopoResult::BoundaryLocked);
+  EXPECT_EQ(m.nt(), 3);
+  m.tris = {2, 3, 0};  // a listed triangle that is a face: kept
+  ASSERT_TRUE(build_topology(m).ok());
+  const Snapshot s = snap(m);
+  ASSERT_TRUE(find_edge(m, 0, 1, t, le));
+  EXPECT_EQ(flip_32(m, t, le), TopoResult::Applied);
+  expect_invariants(s, m);
+}
+
 TEST(Topo, TwoThreeAddsEdge) {
   // Two flat tets on a wide triangle; the 2-3 gives three better tets.
   auto p = ring_points(3, 2.0, 0.3);
@@ -276,6 +296,12 @@ TEST(Topo, EdgeRemovalLimitsAndLocks) {
   ASSERT_TRUE(find_edge(m3, 0, 1, t, le));
   EXPECT_EQ(remove_edge(m3, t, le), TopoResult::RegionMismatch);
   EXPECT_EQ(m3.nt(), 5);
+  // Gmsh entities count as regions too.
+  TetMesh m5 = make_shell(5, 0.5, 1.0);
+  m5.tet_entity = {1, 1, 1, 2, 1};
+  ASSERT_TRUE(build_topology(m5).ok());
+  ASSERT_TRUE(find_edge(m5, 0, 1, t, le));
+  EXPECT_EQ(remove_edge(m5, t, le), TopoResult::RegionMismatch);
   // flip_32 / flip_44 insist on their shell size.
   TetMesh m4 = make_shell(5, 0.5, 1.0);
   ASSERT_TRUE(find_edge(m4, 0, 1, t, le));
@@ -419,6 +445,7 @@ TEST(Topo, AllBoundaryTetsOnBox) {
     TopoOptions o;
     o.must_improve = must;
     o.worsen_bound = 0.2;
+    o.quality_threshold = 2;  // every kind-4 tet
     const TopoStats st = remove_all_boundary_tets(m, o);
     ASSERT_TRUE(st.status.ok());
     EXPECT_GT(st.kind4_before, 0);
