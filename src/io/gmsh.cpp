@@ -474,6 +474,7 @@ class GmshReader {
   }
 
   Status read_elements22() {
+    if (!have_nodes_) return fail(ErrorCode::Parse, "$Elements before $Nodes");
     int64_t n = 0;
     if (Status s = int_tok(n, "the number of elements"); !s) return s;
     if (Status s = begin_elements(n); !s) return s;
@@ -520,6 +521,7 @@ class GmshReader {
   }
 
   Status read_elements41() {
+    if (!have_nodes_) return fail(ErrorCode::Parse, "$Elements before $Nodes");
     start_binary();
     int64_t nblocks = 0, n = 0, mn = 0, mx = 0;
     if (Status s = count_val(nblocks, "the number of element blocks"); !s) return s;
@@ -682,7 +684,9 @@ class GmshWriter {
     write_physical_names();
 
     // Entities: one per distinct (dim, entity tag, ref); element runs of the
-    // same entity become blocks, so the element order survives.
+    // same entity become blocks, so the element order survives.  Every
+    // entity lists exactly one physical tag, its ref (0 included: gmsh keeps
+    // physical 0 in 4.1, and meshio needs a physical tag on every block).
     const int32_t nt = m_.nt(), ntri = m_.ntri();
     const int32_t ne = static_cast<int32_t>(m_.edges.size() / 2), nc = static_cast<int32_t>(m_.corners.size());
     std::vector<Entity> ents;
@@ -733,8 +737,8 @@ class GmshWriter {
           for (int k = 0; k < 3; ++k) gvscan::store<double>(out_, e.lo[k], false);
           if (d > 0)
             for (int k = 0; k < 3; ++k) gvscan::store<double>(out_, e.hi[k], false);
-          gvscan::store<uint64_t>(out_, d == 0 ? 0 : 1, false);
-          if (d > 0) gvscan::store<int32_t>(out_, e.phys, false);
+          gvscan::store<uint64_t>(out_, 1, false);
+          gvscan::store<int32_t>(out_, e.phys, false);
           if (d > 0) gvscan::store<uint64_t>(out_, 0, false);
         } else {
           gvscan::put_int(out_, e.tag);
@@ -747,13 +751,9 @@ class GmshWriter {
               out_ += ' ';
               gvscan::put_double(out_, e.hi[k]);
             }
-          if (d == 0) {
-            out_ += " 0\n";
-          } else {
-            out_ += " 1 ";
-            gvscan::put_int(out_, e.phys);
-            out_ += " 0\n";
-          }
+          out_ += " 1 ";
+          gvscan::put_int(out_, e.phys);
+          out_ += d == 0 ? "\n" : " 0\n";
         }
       }
     if (binary_) out_ += '\n';

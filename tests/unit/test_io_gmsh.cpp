@@ -1,0 +1,486 @@
+// Gmsh .msh reader and writer: round trips of every variant, hostile input,
+// and cross-checks against gmsh itself and meshio when they are installed.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+
+#include "io/scan_gmsh_vtk.hpp"
+#include "tetopt/generate.hpp"
+#include "tetopt/io.hpp"
+#include "tetopt/predicates.hpp"
+
+using namespace tetopt;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// A two-region box with hand-set refs, entity tags, listed edges, corners
+/// and physical names.
+TetMesh sample_mesh() {
+  TetMesh m = make_box_mesh({.nx = 3, .ny = 2, .nz = 2, .regions = 2});
+  m.tet_entity.resize(m.tet_ref.size());
+  for (size_t t = 0; t < m.tet_ref.size(); ++t) m.tet_entity[t] = m.tet_ref[t] + 10;
+  m.tri_entity.resize(m.tri_ref.size());
+  for (size_t i = 0; i < m.tri_ref.size(); ++i) {
+    m.tri_ref[i] = 100 + static_cast<int32_t>(i % 3);
+    m.tri_entity[i] = 200 + static_cast<int32_t>(i % 3);
+  }
+  m.edges = {0, 1, 1, 2, 4, 5};
+  m.edge_ref = {5, 5, 6};
+  m.corners = {0, 3};
+  m.physical_names = {{3, 1, "left part"}, {3, 2, "right"}, {2, 100, "skin a"}, {1, 5, "wire"}};
+  // A coordinate that needs all 17 digits.
+  m.xyz[0] = 0.1 + 1e-17;
+  m.xyz[4] = std::nextafter(1.0, 2.0);
+  return m;
+}
+
+void expect_same(const TetMesh& a, const TetMesh& b, bool entities = true) {
+  ASSERT_EQ(a.xyz.size(), b.xyz.size());
+  EXPECT_EQ(0, std::memcmp(a.xyz.data(), b.xyz.data(), a.xyz.size() * sizeof(double))) << "coordinates differ";
+  EXPECT_EQ(a.tets, b.tets);
+  EXPECT_EQ(a.tet_ref, b.tet_ref);
+  EXPECT_EQ(a.tris, b.tris);
+  EXPECT_EQ(a.tri_ref, b.tri_ref);
+  EXPECT_EQ(a.edges, b.edges);
+  EXPECT_EQ(a.edge_ref, b.edge_ref);
+  EXPECT_EQ(a.corners, b.corners);
+  if (entities) {
+    EXPECT_EQ(a.tet_entity, b.tet_entity);
+    EXPECT_EQ(a.tri_entity, b.tri_entity);
+  }
+  ASSERT_EQ(a.physical_names.size(), b.physical_names.size());
+  for (size_t i = 0; i < a.physical_names.size(); ++i) {
+    EXPECT_EQ(a.physical_names[i].dim, b.physical_names[i].dim);
+    EXPECT_EQ(a.physical_names[i].tag, b.physical_names[i].tag);
+    EXPECT_EQ(a.physical_names[i].name, b.physical_names[i].name);
+  }
+}
+
+struct Variant {
+  int version;
+  bool binary;
+};
+
+std::string tmp_dir() {
+  const fs::path p = fs::temp_directory_path() / ("tetopt_gmsh_" + std::to_string(::getpid()));
+  fs::create_directories(p);
+  return p.string();
+}
+
+bool have_program(const char* check) { return std::system(check) == 0; }
+bool have_gmsh() { return have_program("command -v gmsh >/dev/null 2>&1"); }
+bool have_meshio() { return have_program("/usr/bin/python3 -c 'import meshio' >/dev/null 2>&1"); }
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+Status parse(const std::string& text, TetMesh& m) { return parse_gmsh(text, "t.msh", m); }
+
+}  // namespace
+
+// ------------------------------------------------------------ round trips
+
+TEST(IoGmsh, RoundTripEveryVariant) {
+  const TetMesh m = sample_mesh();
+  for (Variant v : {Variant{22, false}, Variant{22, true}, Variant{41, false}, Variant{41, true}}) {
+    SCOPED_TRACE("version " + std::to_string(v.version) + (v.binary ? " binary" : " ascii"));
+    std::string out;
+    ASSERT_TRUE(format_gmsh(m, out, v.version, v.binary));
+    TetMesh r;
+    const Status s = parse(out, r);
+    ASSERT_TRUE(s) << s.message;
+    expect_same(m, r);
+    // and again: writing what was read gives the same bytes
+    std::string out2;
+    ASSERT_TRUE(format_gmsh(r, out2, v.version, v.binary));
+    EXPECT_EQ(out, out2);
+  }
+}
+
+TEST(IoGmsh, RoundTripKeepsRefsWhenEntitiesMixRefs) {
+  // One entity tag shared by tets of two refs: 4.1 must split the entity so
+  // that both refs survive (the entity tag of one group is renumbered).
+  TetMesh m = make_box_mesh({.nx = 2, .ny = 2, .nz = 1, .regions = 2});
+  m.tet_entity.assign(m.tet_ref.size(), 1);
+  for (Variant v : {Variant{22, false}, Variant{41, false}, Variant{41, true}}) {
+    std::string out;
+    ASSERT_TRUE(format_gmsh(m, out, v.version, v.binary));
+    TetMesh r;
+    ASSERT_TRUE(parse(out, r));
+    EXPECT_EQ(m.tet_ref, r.tet_ref);
+    EXPECT_EQ(m.tets, r.tets);
+  }
+}
+
+TEST(IoGmsh, WriteReadThroughFilesIsPositive) {
+  const std::string dir = tmp_dir();
+  TetMesh m = make_box_mesh({.nx = 2, .ny = 2, .nz = 2, .jitter = 0.2, .regions = 2});
+  for (Variant v : {Variant{22, false}, Variant{22, true}, Variant{41, false}, Variant{41, true}}) {
+    const std::string path = dir + "/f" + std::to_string(v.version) + (v.binary ? "b" : "a") + ".msh";
+    ASSERT_TRUE(write_mesh(path, m, {.msh_version = v.version, .binary = v.binary}));
+    TetMesh r;
+    OrientationReport rep;
+    const Status s = read_mesh(path, r, &rep);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(rep.negative, 0);
+    EXPECT_FALSE(r.flipped_on_read);
+    EXPECT_EQ(r.nt(), m.nt());
+    EXPECT_EQ(r.tet_ref, m.tet_ref);
+    for (int32_t t = 0; t < r.nt(); ++t) {
+      const int32_t* q = r.tet(t);
+      ASSERT_EQ(orient3d(r.point(q[0]), r.point(q[1]), r.point(q[2]), r.point(q[3])), Sign::Positive);
+    }
+  }
+  fs::remove_all(dir);
+}
+
+TEST(IoGmsh, FlippedFileIsWrittenBackInItsOwnConvention) {
+  // A file whose tets are all negative: read_mesh flips them and the Gmsh
+  // writer restores the file's order.
+  TetMesh m = make_box_mesh({.nx = 1, .ny = 1, .nz = 1});
+  for (int32_t t = 0; t < m.nt(); ++t) std::swap(m.tets[4 * t + 2], m.tets[4 * t + 3]);
+  const std::string dir = tmp_dir();
+  const std::string path = dir + "/neg.msh";
+  std::string out;
+  ASSERT_TRUE(format_gmsh(m, out, 41, false));
+  ASSERT_TRUE(write_file_atomic(path, out));
+  TetMesh r;
+  ASSERT_TRUE(read_mesh(path, r));
+  EXPECT_TRUE(r.flipped_on_read);
+  std::string back;
+  ASSERT_TRUE(format_gmsh(r, back, 41, false));
+  EXPECT_EQ(out, back);
+  fs::remove_all(dir);
+}
+
+TEST(IoGmsh, SparseUnorderedNodeTags) {
+  const std::string text =
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n"
+      "$Nodes\n5\n"
+      "1000 0 0 0\n7 1 0 0\n123456789 0 1 0\n3 0 0 1\n42 1 1 1\n"
+      "$EndNodes\n$Elements\n3\n"
+      "1 4 2 9 4 1000 7 123456789 3\n"
+      "2 2 2 5 6 1000 7 123456789\n"
+      "3 4 0 7 123456789 3 42\n"
+      "$EndElements\n";
+  TetMesh m;
+  const Status s = parse(text, m);
+  ASSERT_TRUE(s) << s.message;
+  ASSERT_EQ(m.nv(), 5);
+  EXPECT_EQ(m.tets, (std::vector<int32_t>{0, 1, 2, 3, 1, 2, 3, 4}));
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{9, 0}));
+  EXPECT_EQ(m.tet_entity, (std::vector<int32_t>{4, 0}));
+  EXPECT_EQ(m.tri_ref, (std::vector<int32_t>{5}));
+  EXPECT_EQ(m.point(4)[2], 1.0);
+}
+
+TEST(IoGmsh, PhysicalTagZeroFallsBackToElementary) {
+  const std::string text =
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n"
+      "$Elements\n1\n1 4 2 0 17 1 2 3 4\n$EndElements\n";
+  TetMesh m;
+  ASSERT_TRUE(parse(text, m));
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{17}));
+}
+
+TEST(IoGmsh, Msh41EntityPhysicalTagsAndParametricNodes) {
+  const std::string text =
+      "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+      "$PhysicalNames\n1\n3 33 \"solid body\"\n$EndPhysicalNames\n"
+      "$Entities\n0 0 0 2\n5 0 0 0 1 1 1 1 33 0\n6 0 0 0 1 1 1 0 0\n$EndEntities\n"
+      "$Nodes\n2 5 1 5\n"
+      "3 5 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+      "2 9 1 1\n5\n1 1 1 0.5 0.5\n"
+      "$EndNodes\n"
+      "$Elements\n2 2 1 2\n3 5 4 1\n1 1 2 3 4\n3 6 4 1\n2 2 3 4 5\n$EndElements\n"
+      "$NodeData\n1\n\"junk\"\n$EndNodeData\n";
+  TetMesh m;
+  const Status s = parse(text, m);
+  ASSERT_TRUE(s) << s.message;
+  EXPECT_EQ(m.nv(), 5);
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{33, 6}));
+  EXPECT_EQ(m.tet_entity, (std::vector<int32_t>{5, 6}));
+  ASSERT_EQ(m.physical_names.size(), 1u);
+  EXPECT_EQ(m.physical_names[0].name, "solid body");
+}
+
+// ------------------------------------------------------------ hostile input
+
+namespace {
+const std::string kHead = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n";
+const std::string kNodes = "$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n";
+
+void expect_error(const std::string& text, ErrorCode code, long line, const std::string& needle) {
+  TetMesh m;
+  const Status s = parse(text, m);
+  ASSERT_FALSE(s) << "accepted: " << text.substr(0, 200);
+  EXPECT_EQ(s.code, code) << s.message;
+  if (line > 0) {
+    EXPECT_EQ(s.line, line) << s.message;
+    EXPECT_EQ(s.message.rfind("t.msh:" + std::to_string(line) + ": ", 0), 0u) << s.message;
+  }
+  EXPECT_NE(s.message.find(needle), std::string::npos) << s.message;
+  EXPECT_EQ(s.message.find('\n'), std::string::npos) << "message is not one line: " << s.message;
+  EXPECT_EQ(m.nt(), 0);
+}
+}  // namespace
+
+TEST(IoGmshHostile, TruncatedFile) {
+  const std::string full = kHead + kNodes + "$Elements\n1\n1 4 2 1 1 1 2 3 4\n$EndElements\n";
+  expect_error(full.substr(0, full.size() - 25), ErrorCode::Parse, 0, "end of file");
+  // every prefix fails cleanly (no crash, no exception)
+  for (size_t n = 0; n + 1 < full.size(); ++n) {
+    TetMesh m;
+    EXPECT_FALSE(parse(full.substr(0, n), m)) << n;
+  }
+}
+
+TEST(IoGmshHostile, CountsThatLie) {
+  // more nodes promised than present
+  expect_error(kHead + "$Nodes\n5\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n", ErrorCode::Parse, 10, "$EndNodes");
+  // fewer promised than present
+  expect_error(kHead + "$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n$EndNodes\n", ErrorCode::Parse, 9,
+               "expected $EndNodes");
+  // element count too large
+  expect_error(kHead + kNodes + "$Elements\n2\n1 4 2 1 1 1 2 3 4\n$EndElements\n", ErrorCode::Parse, 0, "");
+}
+
+TEST(IoGmshHostile, AbsurdCountsAllocateNothing) {
+  expect_error(kHead + "$Nodes\n900000000000\n1 0 0 0\n$EndNodes\n", ErrorCode::Parse, 5, "exceeds");
+  expect_error(kHead + kNodes + "$Elements\n99999999999\n$EndElements\n", ErrorCode::Parse, 12, "exceeds");
+  expect_error(kHead + "$Nodes\n-3\n$EndNodes\n", ErrorCode::Parse, 5, "negative");
+  // binary 4.1 header with a huge size_t count
+  std::string b = "$MeshFormat\n4.1 1 8\n";
+  gvscan::store<int32_t>(b, 1, false);
+  b += "\n$EndMeshFormat\n$Nodes\n";
+  for (uint64_t x : {uint64_t{1}, uint64_t{1} << 40, uint64_t{1}, uint64_t{1} << 40}) gvscan::store<uint64_t>(b, x, false);
+  b += "\n$EndNodes\n";
+  TetMesh m;
+  const Status s = parse(b, m);
+  ASSERT_FALSE(s);
+  EXPECT_NE(s.message.find("exceeds"), std::string::npos) << s.message;
+}
+
+TEST(IoGmshHostile, NanAndInfCoordinates) {
+  expect_error(kHead + "$Nodes\n2\n1 0 0 0\n2 nan 0 0\n$EndNodes\n", ErrorCode::InvalidMesh, 7, "NaN");
+  expect_error(kHead + "$Nodes\n2\n1 0 inf 0\n2 0 0 0\n$EndNodes\n", ErrorCode::InvalidMesh, 6, "infinite");
+  expect_error(kHead + "$Nodes\n1\n1 0 1e999 0\n$EndNodes\n", ErrorCode::Parse, 6, "coordinate");
+}
+
+TEST(IoGmshHostile, UnknownNodeTagAndDuplicateTag) {
+  expect_error(kHead + kNodes + "$Elements\n1\n1 4 2 1 1 1 2 3 99\n$EndElements\n", ErrorCode::InvalidMesh, 13,
+               "node tag 99");
+  expect_error(kHead + "$Nodes\n2\n1 0 0 0\n1 1 0 0\n$EndNodes\n", ErrorCode::InvalidMesh, 7, "appears twice");
+}
+
+TEST(IoGmshHostile, NonNumericTokens) {
+  expect_error(kHead + "$Nodes\n2\n1 0 0 0\n2 1 x 0\n$EndNodes\n", ErrorCode::Parse, 7, "'x'");
+  expect_error(kHead + kNodes + "$Elements\n1\n1 4 2 1 1 1 2 3 4z\n$EndElements\n", ErrorCode::Parse, 13, "'4z'");
+  expect_error("$MeshFormat\n2.2 zero 8\n$EndMeshFormat\n", ErrorCode::Parse, 2, "file type");
+}
+
+TEST(IoGmshHostile, SectionOrderAndMissingEnd) {
+  expect_error(kHead + "$Elements\n0\n$EndElements\n" + kNodes, ErrorCode::Parse, 4, "before $Nodes");
+  expect_error(kHead + "$Nodes\n1\n1 0 0 0\n$Elements\n0\n$EndElements\n", ErrorCode::Parse, 7, "expected $EndNodes");
+  expect_error("$Nodes\n1\n1 0 0 0\n$EndNodes\n", ErrorCode::Parse, 1, "$MeshFormat");
+  expect_error(kHead + kNodes + "$Periodic\n1 2 3\n", ErrorCode::Parse, 0, "$EndPeriodic");
+  expect_error(kHead + kNodes, ErrorCode::Parse, 0, "no $Elements");
+}
+
+TEST(IoGmshHostile, SurfaceOnlyMeshAndUnsupportedTypes) {
+  expect_error(kHead + kNodes + "$Elements\n1\n1 2 2 1 1 1 2 3\n$EndElements\n", ErrorCode::InvalidMesh, 0,
+               "no tetrahedra");
+  expect_error(kHead + kNodes + "$Elements\n1\n1 11 2 1 1 1 2 3 4 1 2 3 4 1 2\n$EndElements\n", ErrorCode::Unsupported,
+               13, "10-node second-order tetrahedron");
+  expect_error(kHead + kNodes + "$Elements\n1\n1 6 2 1 1 1 2 3 4 1 2\n$EndElements\n", ErrorCode::Unsupported, 13,
+               "prism");
+  expect_error("$MeshFormat\n4 0 8\n$EndMeshFormat\n", ErrorCode::Unsupported, 2, "version 4");
+}
+
+TEST(IoGmshHostile, BinaryTruncatedAndCorrupted) {
+  const TetMesh m = sample_mesh();
+  for (int version : {22, 41}) {
+    std::string out;
+    ASSERT_TRUE(format_gmsh(m, out, version, true));
+    for (size_t cut : {out.size() / 2, out.size() - 20, out.size() / 3, size_t{30}}) {
+      TetMesh r;
+      const Status s = parse(out.substr(0, cut), r);
+      EXPECT_FALSE(s) << version << " cut " << cut;
+      EXPECT_EQ(s.message.find('\n'), std::string::npos);
+    }
+    // wrong endianness check
+    std::string bad = out;
+    const size_t at = bad.find("8\n") + 2;
+    bad[at] = 2;
+    TetMesh r;
+    EXPECT_FALSE(parse(bad, r));
+    // flip bytes all over the binary part: never a crash
+    for (size_t i = 60; i < out.size(); i += 7) {
+      std::string c = out;
+      c[i] = static_cast<char>(c[i] ^ 0x5a);
+      TetMesh x;
+      (void)parse(c, x);
+    }
+  }
+}
+
+// ------------------------------------------------------------ gmsh / meshio
+
+TEST(IoGmshCross, GmshAcceptsOurFiles) {
+  if (!have_gmsh()) GTEST_SKIP() << "gmsh not installed";
+  const std::string dir = tmp_dir();
+  const TetMesh m = sample_mesh();
+  for (Variant v : {Variant{22, false}, Variant{22, true}, Variant{41, false}, Variant{41, true}}) {
+    SCOPED_TRACE("version " + std::to_string(v.version) + (v.binary ? " binary" : " ascii"));
+    std::string out;
+    ASSERT_TRUE(format_gmsh(m, out, v.version, v.binary));
+    const std::string in = dir + "/ours.msh", back = dir + "/back.msh";
+    ASSERT_TRUE(write_file_atomic(in, out));
+    fs::remove(back);
+    const std::string cmd = "gmsh " + in + " -0 -format msh41 -o " + back + " > " + dir + "/log.txt 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/log.txt");
+    const std::string log = slurp(dir + "/log.txt");
+    EXPECT_EQ(log.find("Error"), std::string::npos) << log;
+    TetMesh r;
+    const Status s = read_mesh(back, r);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(r.nt(), m.nt());
+    EXPECT_EQ(r.ntri(), m.ntri());
+    EXPECT_EQ(r.edges.size(), m.edges.size());
+    // Gmsh may renumber elements inside an entity; compare refs as multisets.
+    std::vector<int32_t> a = m.tet_ref, b = r.tet_ref, c = m.tri_ref, d = r.tri_ref;
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    std::sort(c.begin(), c.end());
+    std::sort(d.begin(), d.end());
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(c, d);
+    EXPECT_EQ(r.physical_names.size(), m.physical_names.size());
+  }
+  fs::remove_all(dir);
+}
+
+TEST(IoGmshCross, ReadsWhatGmshWrote) {
+  if (!have_gmsh()) GTEST_SKIP() << "gmsh not installed";
+  const std::string dir = tmp_dir();
+  const std::string geo = std::string(TETOPT_SOURCE_DIR) + "/tests/data/gmsh/two_boxes.geo";
+  int32_t nt_first = -1;
+  for (const char* fmt : {"msh22", "msh41"})
+    for (const char* bin : {"", " -bin"}) {
+      SCOPED_TRACE(std::string(fmt) + bin);
+      const std::string out = dir + "/g.msh";
+      fs::remove(out);
+      const std::string cmd = "gmsh " + geo + " -3 -format " + fmt + bin + " -o " + out + " > /dev/null 2>&1";
+      ASSERT_EQ(std::system(cmd.c_str()), 0);
+      TetMesh r;
+      OrientationReport rep;
+      const Status s = read_mesh(out, r, &rep);
+      ASSERT_TRUE(s) << s.message;
+      EXPECT_GT(r.nt(), 0);
+      EXPECT_EQ(rep.negative, 0);
+      EXPECT_EQ(rep.flat, 0);
+      if (nt_first < 0) nt_first = r.nt();
+      EXPECT_EQ(r.nt(), nt_first);  // same mesh in every encoding
+      for (int32_t ref : r.tet_ref) EXPECT_TRUE(ref == 7 || ref == 8) << ref;
+      EXPECT_GT(std::count(r.tet_ref.begin(), r.tet_ref.end(), 7), 0);
+      EXPECT_GT(std::count(r.tet_ref.begin(), r.tet_ref.end(), 8), 0);
+      for (int32_t ref : r.tri_ref) EXPECT_EQ(ref, 3);
+      EXPECT_EQ(r.physical_names.size(), 3u);
+      // total volume of the two unit cubes
+      double vol = 0;
+      for (int32_t t = 0; t < r.nt(); ++t) vol += tet_volume(r, t);
+      EXPECT_NEAR(vol, 2.0, 1e-12);
+    }
+  fs::remove_all(dir);
+}
+
+TEST(IoGmshCross, MeshioReadsOurFiles) {
+  if (!have_meshio()) GTEST_SKIP() << "meshio not importable by /usr/bin/python3";
+  const std::string dir = tmp_dir();
+  const TetMesh m = sample_mesh();
+  int64_t want_sum = 0;
+  for (int32_t r : m.tet_ref) want_sum += r;
+  for (Variant v : {Variant{22, false}, Variant{22, true}, Variant{41, false}, Variant{41, true}}) {
+    SCOPED_TRACE("version " + std::to_string(v.version) + (v.binary ? " binary" : " ascii"));
+    std::string out;
+    ASSERT_TRUE(format_gmsh(m, out, v.version, v.binary));
+    const std::string in = dir + "/ours.msh", res = dir + "/res.txt";
+    ASSERT_TRUE(write_file_atomic(in, out));
+    const std::string cmd =
+        "/usr/bin/python3 -c 'import meshio,sys\n"
+        "m=meshio.read(sys.argv[1])\n"
+        "nt=sum(len(c.data) for c in m.cells if c.type==\"tetra\")\n"
+        "s=sum(int(m.cell_data[\"gmsh:physical\"][i].sum()) for i,c in enumerate(m.cells) if c.type==\"tetra\")\n"
+        "print(len(m.points), nt, s, repr(float(m.points[0][0])))' " +
+        in + " > " + res + " 2>" + dir + "/err.txt";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/err.txt");
+    std::istringstream ss(slurp(res));
+    int64_t np = 0, nt = 0, sum = 0;
+    std::string x0;
+    ss >> np >> nt >> sum >> x0;
+    EXPECT_EQ(np, m.nv());
+    EXPECT_EQ(nt, m.nt());
+    EXPECT_EQ(sum, want_sum);
+    double x = 0;
+    ASSERT_TRUE(gvscan::parse_double(x0, x));
+    EXPECT_EQ(x, m.xyz[0]);
+  }
+  fs::remove_all(dir);
+}
+
+TEST(IoGmshCross, MeshioWrittenFilesRead) {
+  if (!have_meshio()) GTEST_SKIP() << "meshio not importable by /usr/bin/python3";
+  const std::string dir = tmp_dir();
+  for (const char* fmt : {"gmsh22", "gmsh"})
+    for (const char* binary : {"False", "True"}) {
+      SCOPED_TRACE(std::string(fmt) + " binary=" + binary);
+      const std::string out = dir + "/mio.msh";
+      const std::string cmd =
+          std::string("/usr/bin/python3 -c 'import meshio,numpy as np\n"
+                      "p=np.array([[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,1,1]],dtype=float)\n"
+                      "c=[(\"tetra\",np.array([[0,1,2,3],[1,2,3,4]]))]\n"
+                      "cd={\"gmsh:physical\":[np.array([4,9])],\"gmsh:geometrical\":[np.array([1,2])]}\n"
+                      "meshio.write(\"") +
+          out + "\",meshio.Mesh(p,c,cell_data=cd),file_format=\"" + fmt + "\",binary=" + binary +
+          ")' > /dev/null 2>&1";
+      ASSERT_EQ(std::system(cmd.c_str()), 0);
+      TetMesh r;
+      const Status s = read_mesh(out, r);
+      ASSERT_TRUE(s) << s.message;
+      EXPECT_EQ(r.nv(), 5);
+      EXPECT_EQ(r.nt(), 2);
+      // meshio's 4.1 writer drops physical tags (no $Entities, one block in
+      // entity 1): the file itself says ref = entity tag 1 there.
+      if (std::string(fmt) == "gmsh22") EXPECT_EQ(r.tet_ref, (std::vector<int32_t>{4, 9}));
+      else EXPECT_EQ(r.tet_ref, (std::vector<int32_t>{1, 1}));
+    }
+  fs::remove_all(dir);
+}
+
+TEST(IoGmshPerf, LargeAsciiParsesQuickly) {
+  // 45 x 45 x 40 cells x 6 = 486k tets: must parse in well under 5 s.
+  TetMesh m = make_box_mesh({.nx = 45, .ny = 45, .nz = 40});
+  std::string out;
+  ASSERT_TRUE(format_gmsh(m, out, 41, false));
+  const auto t0 = std::chrono::steady_clock::now();
+  TetMesh r;
+  ASSERT_TRUE(parse(out, r));
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(r.nt(), m.nt());
+  EXPECT_LT(secs, 5.0) << r.nt() << " tets took " << secs << " s";
+}
