@@ -105,6 +105,14 @@ NumType legacy_type(std::string_view t) {
   if (u == "UNSIGNED_SHORT") return {2, true, false, false};
   if (u == "CHAR") return {1, true, true, false};
   if (u == "UNSIGNED_CHAR") return {1, true, false, false};
+  if (u == "VTKTYPEINT8") return {1, true, true, false};
+  if (u == "VTKTYPEUINT8") return {1, true, false, false};
+  if (u == "VTKTYPEINT16") return {2, true, true, false};
+  if (u == "VTKTYPEUINT16") return {2, true, false, false};
+  if (u == "VTKTYPEINT32") return {4, true, true, false};
+  if (u == "VTKTYPEUINT32") return {4, true, false, false};
+  if (u == "VTKTYPEFLOAT32") return {4, false, true, true};
+  if (u == "VTKTYPEFLOAT64") return {8, false, true, false};
   if (u == "LONG" || u == "VTKTYPEINT64" || u == "VTKIDTYPE") return {8, true, true, false};
   if (u == "UNSIGNED_LONG" || u == "VTKTYPEUINT64") return {8, true, false, false};
   return {};
@@ -881,9 +889,8 @@ class VtuReader {
         const size_t e = s_.rfind("</AppendedData>");
         appended_end_ = (e == std::string_view::npos || e < appended_) ? s_.size() : e;
         return Status::success();  // raw bytes follow: stop scanning XML here
-      } else if (!self) {
-        stack.emplace_back(tname);
       }
+      if (!self && tname != "DataArray") stack.emplace_back(tname);
     }
     if (!saw_vtkfile) return fail(ErrorCode::Parse, "not a VTK XML file (no <VTKFile> element)", 0);
     if (!stack.empty()) return fail(ErrorCode::Parse, "missing </" + stack.back() + "> (truncated file?)", s_.size());

@@ -41,7 +41,7 @@ TetMesh sample_mesh() {
   m.physical_names = {{3, 1, "left part"}, {3, 2, "right"}, {2, 100, "skin a"}, {1, 5, "wire"}};
   // A coordinate that needs all 17 digits.
   m.xyz[0] = 0.1 + 1e-17;
-  m.xyz[4] = std::nextafter(1.0, 2.0);
+  m.xyz[3] = std::nextafter(1.0, 2.0);  // vertex 1 is (1, 0, 0)
   return m;
 }
 

@@ -1,0 +1,534 @@
+// VTK legacy (.vtk) and XML (.vtu) readers and writers: round trips of every
+// variant, the 5.x legacy layout, appended and compressed VTU, hostile
+// input, meshio cross-checks and the shared real meshes.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <unistd.h>
+
+#include "io/scan_gmsh_vtk.hpp"
+#include "tetopt/generate.hpp"
+#include "tetopt/io.hpp"
+#include "tetopt/predicates.hpp"
+
+using namespace tetopt;
+namespace fs = std::filesystem;
+
+namespace {
+
+TetMesh sample_mesh() {
+  TetMesh m = make_box_mesh({.nx = 3, .ny = 2, .nz = 2, .jitter = 0.3, .seed = 7, .regions = 2});
+  for (size_t i = 0; i < m.tri_ref.size(); ++i) m.tri_ref[i] = 100 + static_cast<int32_t>(i % 3);
+  m.edges = {0, 1, 1, 2, 4, 5};
+  m.edge_ref = {5, 5, 6};
+  m.corners = {0, 3};
+  m.xyz[0] = 0.1 + 1e-17;
+  m.xyz[3] = std::nextafter(1.0, 2.0);  // vertex 1 is (1, 0, 0)
+  const size_t nv = static_cast<size_t>(m.nv());
+  TetMesh::PointField fixed{"fixed", 1, true, {}}, disp{"disp", 3, false, {}}, big{"six", 6, false, {}};
+  for (size_t v = 0; v < nv; ++v) {
+    fixed.values.push_back(static_cast<double>(v % 2));
+    for (int k = 0; k < 3; ++k) disp.values.push_back(std::sqrt(static_cast<double>(v + k)) / 3.0);
+    for (int k = 0; k < 6; ++k) big.values.push_back(-1.0 / static_cast<double>(v + k + 1));
+  }
+  m.point_fields = {fixed, disp, big};
+  return m;
+}
+
+void expect_same(const TetMesh& a, const TetMesh& b) {
+  ASSERT_EQ(a.xyz.size(), b.xyz.size());
+  EXPECT_EQ(0, std::memcmp(a.xyz.data(), b.xyz.data(), a.xyz.size() * sizeof(double))) << "coordinates differ";
+  EXPECT_EQ(a.tets, b.tets);
+  EXPECT_EQ(a.tet_ref, b.tet_ref);
+  EXPECT_EQ(a.tris, b.tris);
+  EXPECT_EQ(a.tri_ref, b.tri_ref);
+  EXPECT_EQ(a.edges, b.edges);
+  EXPECT_EQ(a.edge_ref, b.edge_ref);
+  EXPECT_EQ(a.corners, b.corners);
+  ASSERT_EQ(a.point_fields.size(), b.point_fields.size());
+  for (size_t i = 0; i < a.point_fields.size(); ++i) {
+    EXPECT_EQ(a.point_fields[i].name, b.point_fields[i].name);
+    EXPECT_EQ(a.point_fields[i].components, b.point_fields[i].components);
+    EXPECT_EQ(a.point_fields[i].integer, b.point_fields[i].integer);
+    ASSERT_EQ(a.point_fields[i].values.size(), b.point_fields[i].values.size());
+    EXPECT_EQ(0, std::memcmp(a.point_fields[i].values.data(), b.point_fields[i].values.data(),
+                             a.point_fields[i].values.size() * sizeof(double)))
+        << a.point_fields[i].name;
+  }
+}
+
+enum class Kind { VtkAscii, VtkBinary, VtuBinary, VtuAscii };
+const char* kind_name(Kind k) {
+  switch (k) {
+    case Kind::VtkAscii: return "vtk ascii";
+    case Kind::VtkBinary: return "vtk binary";
+    case Kind::VtuBinary: return "vtu binary";
+    default: return "vtu ascii";
+  }
+}
+constexpr Kind kKinds[] = {Kind::VtkAscii, Kind::VtkBinary, Kind::VtuBinary, Kind::VtuAscii};
+
+Status format_kind(const TetMesh& m, std::string& out, Kind k) {
+  switch (k) {
+    case Kind::VtkAscii: return format_vtk(m, out, false);
+    case Kind::VtkBinary: return format_vtk(m, out, true);
+    case Kind::VtuBinary: return format_vtu(m, out);
+    default: return detail::format_vtu_encoded(m, out, false);
+  }
+}
+Status parse_kind(const std::string& in, TetMesh& m, Kind k) {
+  return (k == Kind::VtkAscii || k == Kind::VtkBinary) ? parse_vtk(in, "t.vtk", m) : parse_vtu(in, "t.vtu", m);
+}
+
+std::string tmp_dir() {
+  const fs::path p = fs::temp_directory_path() / ("tetopt_vtk_" + std::to_string(::getpid()));
+  fs::create_directories(p);
+  return p.string();
+}
+bool have_meshio() { return std::system("/usr/bin/python3 -c 'import meshio' >/dev/null 2>&1") == 0; }
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+std::string shared_meshes() {
+  for (const std::string& p : {std::string(TETOPT_SOURCE_DIR) + "/../shared/meshes", std::string("/work/shared/meshes")})
+    if (fs::is_directory(p)) return p;
+  return {};
+}
+
+}  // namespace
+
+// ------------------------------------------------------------ round trips
+
+TEST(IoVtk, RoundTripEveryVariant) {
+  const TetMesh m = sample_mesh();
+  for (Kind k : kKinds) {
+    SCOPED_TRACE(kind_name(k));
+    std::string out;
+    ASSERT_TRUE(format_kind(m, out, k));
+    TetMesh r;
+    const Status s = parse_kind(out, r, k);
+    ASSERT_TRUE(s) << s.message;
+    expect_same(m, r);
+    std::string again;
+    ASSERT_TRUE(format_kind(r, again, k));
+    EXPECT_EQ(out, again);
+  }
+}
+
+TEST(IoVtk, WriteReadThroughFilesIsPositive) {
+  const std::string dir = tmp_dir();
+  const TetMesh m = sample_mesh();
+  for (const auto& [ext, bin] : {std::pair{".vtk", false}, std::pair{".vtk", true}, std::pair{".vtu", false}}) {
+    const std::string path = dir + "/f" + (bin ? "b" : "a") + ext;
+    ASSERT_TRUE(write_mesh(path, m, {.binary = bin}));
+    TetMesh r;
+    OrientationReport rep;
+    const Status s = read_mesh(path, r, &rep);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(rep.negative, 0);
+    EXPECT_EQ(r.tet_ref, m.tet_ref);
+    for (int32_t t = 0; t < r.nt(); ++t) {
+      const int32_t* q = r.tet(t);
+      ASSERT_EQ(orient3d(r.point(q[0]), r.point(q[1]), r.point(q[2]), r.point(q[3])), Sign::Positive);
+    }
+  }
+  fs::remove_all(dir);
+}
+
+TEST(IoVtk, Legacy51OffsetsConnectivityAndFieldData) {
+  TetMesh m;
+  const std::string path = std::string(TETOPT_SOURCE_DIR) + "/tests/data/vtk/two_tets_51.vtk";
+  std::string bytes;
+  ASSERT_TRUE(read_file_bytes(path, bytes));
+  const Status s = parse_vtk(bytes, "two_tets_51.vtk", m);
+  ASSERT_TRUE(s) << s.message;
+  EXPECT_EQ(m.nv(), 5);
+  EXPECT_EQ(m.tets, (std::vector<int32_t>{0, 1, 2, 3, 1, 2, 3, 4}));
+  EXPECT_EQ(m.tris, (std::vector<int32_t>{0, 1, 2}));
+  EXPECT_EQ(m.edges, (std::vector<int32_t>{0, 4}));
+  // GLOBAL_ID is an id numbering, not a region: MaterialIds wins.
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{7, 8}));
+  EXPECT_EQ(m.tri_ref, (std::vector<int32_t>{9}));
+  EXPECT_EQ(m.edge_ref, (std::vector<int32_t>{10}));
+  ASSERT_EQ(m.point_fields.size(), 2u);
+  EXPECT_EQ(m.point_fields[0].name, "fixed");
+  EXPECT_TRUE(m.point_fields[0].integer);
+  EXPECT_EQ(m.point_fields[1].name, "velocity");
+  EXPECT_EQ(m.point_fields[1].components, 3);
+  EXPECT_EQ(m.point_fields[1].values[12], 0.5);
+}
+
+TEST(IoVtk, RefArrayChoice) {
+  const std::string head =
+      "# vtk DataFile Version 3.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+      "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nCELL_DATA 1\n";
+  TetMesh m;
+  ASSERT_TRUE(parse_vtk(head + "SCALARS GLOBAL_ID int 1\nLOOKUP_TABLE default\n5\n", "t.vtk", m));
+  EXPECT_TRUE(m.tet_ref.empty());  // read_mesh fills 0
+  ASSERT_TRUE(parse_vtk(head + "SCALARS q int\nLOOKUP_TABLE default\n5\nSCALARS region int 1\nLOOKUP_TABLE default\n6\n",
+                        "t.vtk", m));
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{6}));
+  ASSERT_TRUE(parse_vtk(head + "SCALARS w float\nLOOKUP_TABLE default\n0.5\nSCALARS q int\nLOOKUP_TABLE default\n5\n",
+                        "t.vtk", m));
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{5}));
+}
+
+namespace {
+/// A one-tet VTU with appended data (raw or base64), optionally with a
+/// UInt32 header and a BigEndian byte order.
+std::string appended_vtu(bool base64, bool header64, bool big) {
+  struct Arr {
+    const char* name;
+    const char* type;
+    int comps;
+    std::string bytes;
+  };
+  std::vector<Arr> arrs;
+  std::string b;
+  for (double x : {0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1.}) gvscan::store<double>(b, x, big);
+  arrs.push_back({"Points", "Float64", 3, b});
+  b.clear();
+  for (int32_t x : {0, 1, 2, 3}) gvscan::store<int32_t>(b, x, big);
+  arrs.push_back({"connectivity", "Int32", 1, b});
+  b.clear();
+  gvscan::store<int64_t>(b, 4, big);
+  arrs.push_back({"offsets", "Int64", 1, b});
+  arrs.push_back({"types", "UInt8", 1, std::string(1, '\x0a')});
+  b.clear();
+  gvscan::store<int16_t>(b, 42, big);
+  arrs.push_back({"CellEntityIds", "Int16", 1, b});
+  std::string data, xml_arrays[5];
+  for (size_t i = 0; i < arrs.size(); ++i) {
+    std::string chunk;
+    if (header64) gvscan::store<uint64_t>(chunk, arrs[i].bytes.size(), big);
+    else gvscan::store<uint32_t>(chunk, static_cast<uint32_t>(arrs[i].bytes.size()), big);
+    chunk += arrs[i].bytes;
+    if (base64) {
+      std::string enc;
+      gvscan::base64_encode(enc, reinterpret_cast<const unsigned char*>(chunk.data()), chunk.size());
+      chunk = enc;
+    }
+    xml_arrays[i] = std::string("<DataArray type=\"") + arrs[i].type + "\" Name=\"" + arrs[i].name +
+                    "\" NumberOfComponents=\"" + std::to_string(arrs[i].comps) +
+                    "\" format=\"appended\" offset=\"" + std::to_string(data.size()) + "\"/>\n";
+    data += chunk;
+  }
+  std::string s = std::string("<?xml version=\"1.0\"?>\n<!-- hand-made -->\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"") +
+                  (big ? "BigEndian" : "LittleEndian") + "\" header_type=\"" + (header64 ? "UInt64" : "UInt32") +
+                  "\">\n<UnstructuredGrid>\n<Piece NumberOfPoints=\"4\" NumberOfCells=\"1\">\n"
+                  "<CellData>" + xml_arrays[4] + "</CellData>\n<Points>" + xml_arrays[0] +
+                  "</Points>\n<Cells>" + xml_arrays[1] + xml_arrays[2] + xml_arrays[3] +
+                  "</Cells>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"" + (base64 ? "base64" : "raw") +
+                  "\">\n   _" + data + "\n</AppendedData>\n</VTKFile>\n";
+  return s;
+}
+}  // namespace
+
+TEST(IoVtk, VtuAppendedRawAndBase64) {
+  for (bool b64 : {false, true})
+    for (bool h64 : {false, true})
+      for (bool big : {false, true}) {
+        SCOPED_TRACE(std::to_string(b64) + std::to_string(h64) + std::to_string(big));
+        TetMesh m;
+        const Status s = parse_vtu(appended_vtu(b64, h64, big), "a.vtu", m);
+        ASSERT_TRUE(s) << s.message;
+        EXPECT_EQ(m.tets, (std::vector<int32_t>{0, 1, 2, 3}));
+        EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{42}));
+        EXPECT_EQ(m.point(3)[2], 1.0);
+      }
+}
+
+// ------------------------------------------------------------ hostile input
+
+namespace {
+const std::string kVtkHead = "# vtk DataFile Version 3.0\nx\nASCII\nDATASET UNSTRUCTURED_GRID\n";
+const std::string kPts = "POINTS 4 double\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n";  // lines 5..9
+const std::string kCells = "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n";     // lines 10..13
+
+void expect_error(const std::string& text, ErrorCode code, long line, const std::string& needle, bool vtu = false) {
+  TetMesh m;
+  const std::string name = vtu ? "t.vtu" : "t.vtk";
+  const Status s = vtu ? parse_vtu(text, name, m) : parse_vtk(text, name, m);
+  ASSERT_FALSE(s) << "accepted: " << text.substr(0, 200);
+  EXPECT_EQ(s.code, code) << s.message;
+  if (line > 0) {
+    EXPECT_EQ(s.line, line) << s.message;
+    EXPECT_EQ(s.message.rfind(name + ":" + std::to_string(line) + ": ", 0), 0u) << s.message;
+  }
+  EXPECT_NE(s.message.find(needle), std::string::npos) << s.message;
+  EXPECT_EQ(s.message.find('\n'), std::string::npos) << "message is not one line: " << s.message;
+  EXPECT_EQ(m.nt(), 0);
+}
+}  // namespace
+
+TEST(IoVtkHostile, ValidBaseIsAccepted) {
+  TetMesh m;
+  const Status s = parse_vtk(kVtkHead + kPts + kCells, "t.vtk", m);
+  ASSERT_TRUE(s) << s.message;
+  EXPECT_EQ(m.nt(), 1);
+}
+
+TEST(IoVtkHostile, TruncatedFile) {
+  const std::string full = kVtkHead + kPts + kCells;
+  expect_error(full.substr(0, 80), ErrorCode::Parse, 0, "truncated");
+  for (size_t n = 0; n + 1 < full.size(); ++n) {
+    TetMesh m;
+    EXPECT_FALSE(parse_vtk(full.substr(0, n), "t.vtk", m)) << n;
+  }
+  std::string vtu;
+  ASSERT_TRUE(format_vtu(sample_mesh(), vtu));
+  for (size_t n = 0; n + 1 < vtu.size(); n += 97) {
+    TetMesh m;
+    EXPECT_FALSE(parse_vtu(vtu.substr(0, n), "t.vtu", m)) << n;
+  }
+}
+
+TEST(IoVtkHostile, CountsThatLie) {
+  expect_error(kVtkHead + "POINTS 5 double\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n" + kCells, ErrorCode::Parse, 10, "'CELLS'");
+  expect_error(kVtkHead + kPts + "CELLS 1 6\n4 0 1 2 3\nCELL_TYPES 1\n10\n", ErrorCode::Parse, 12, "'CELL_TYPES'");
+  expect_error(kVtkHead + kPts + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 2\n10\n10\n", ErrorCode::Parse, 12, "differs");
+  expect_error(kVtkHead + kPts + kCells + "CELL_DATA 1\nSCALARS ref int 1\nLOOKUP_TABLE default\n1 2\n", ErrorCode::Parse,
+               17, "unexpected keyword '2'");
+  expect_error(kVtkHead + kPts + "CELLS 1 5\n3 0 1 2 3\nCELL_TYPES 1\n10\n", ErrorCode::Parse, 0, "does not match");
+}
+
+TEST(IoVtkHostile, AbsurdCountsAllocateNothing) {
+  expect_error(kVtkHead + "POINTS 4000000000000 double\n0 0 0\n", ErrorCode::Parse, 5, "remain");
+  expect_error(kVtkHead + kPts + "CELLS 1 99999999999999\n4 0 1 2 3\n", ErrorCode::Parse, 10, "remain");
+  std::string bin = "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 900000000 double\n";
+  bin += std::string(24, '\0');
+  expect_error(bin, ErrorCode::Parse, 0, "remain");
+  const std::string vtu =
+      "<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid><Piece NumberOfPoints=\"99999999999\" NumberOfCells=\"1\">";
+  expect_error(vtu, ErrorCode::Parse, 1, "exceed", true);
+}
+
+TEST(IoVtkHostile, NanAndInfCoordinates) {
+  expect_error(kVtkHead + "POINTS 4 double\n0 0 0\n1 nan 0\n0 1 0\n0 0 1\n" + kCells, ErrorCode::InvalidMesh, 0, "NaN");
+  expect_error(kVtkHead + "POINTS 4 float\n0 0 0\n1 0 0\n0 inf 0\n0 0 1\n" + kCells, ErrorCode::InvalidMesh, 0,
+               "infinite");
+  expect_error(kVtkHead + "POINTS 4 float\n0 0 0\n1 0 0\n0 1e60 0\n0 0 1\n" + kCells, ErrorCode::Parse, 8, "'1e60'");
+}
+
+TEST(IoVtkHostile, IndexOutOfRange) {
+  expect_error(kVtkHead + kPts + "CELLS 1 5\n4 0 1 2 4\nCELL_TYPES 1\n10\n", ErrorCode::InvalidMesh, 0, "names point 4");
+  expect_error(kVtkHead + kPts + "CELLS 1 5\n4 0 -1 2 3\nCELL_TYPES 1\n10\n", ErrorCode::InvalidMesh, 0, "names point -1");
+}
+
+TEST(IoVtkHostile, NonNumericTokens) {
+  expect_error(kVtkHead + "POINTS 4 double\n0 0 0\n1 0 0\n0 one 0\n0 0 1\n" + kCells, ErrorCode::Parse, 8, "'one'");
+  expect_error(kVtkHead + kPts + "CELLS 1 5\n4 0 1 2 3.5\nCELL_TYPES 1\n10\n", ErrorCode::Parse, 11, "'3.5'");
+  expect_error(kVtkHead + "POINTS four double\n", ErrorCode::Parse, 5, "'four'");
+}
+
+TEST(IoVtkHostile, StructureErrors) {
+  expect_error("# not vtk\n", ErrorCode::Parse, 1, "not a legacy VTK file");
+  expect_error("# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\n", ErrorCode::Unsupported, 4,
+               "STRUCTURED_POINTS");
+  expect_error(kVtkHead + kPts, ErrorCode::Parse, 0, "no CELLS");
+  expect_error(kVtkHead + kPts + "CELL_TYPES 1\n10\n", ErrorCode::Parse, 0, "no CELLS");
+  expect_error(kVtkHead + kPts + "CELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n5\n", ErrorCode::InvalidMesh, 0, "no tetrahedra");
+  expect_error(kVtkHead + kPts + "CELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n9\n", ErrorCode::Unsupported, 0, "quad");
+  expect_error(kVtkHead + kPts + "CELLS 1 11\n10 0 1 2 3 0 1 2 3 0 1\nCELL_TYPES 1\n24\n", ErrorCode::Unsupported, 0,
+               "quadratic tetrahedron");
+  expect_error(kVtkHead + kPts + "CELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n10\n", ErrorCode::Parse, 0, "lists 3 points");
+}
+
+TEST(IoVtkHostile, BinaryTruncatedAndCorrupted) {
+  const TetMesh m = sample_mesh();
+  std::string out;
+  ASSERT_TRUE(format_vtk(m, out, true));
+  for (size_t cut : {out.size() / 2, out.size() - 10, out.size() / 5, size_t{120}}) {
+    TetMesh r;
+    const Status s = parse_vtk(out.substr(0, cut), "t.vtk", r);
+    EXPECT_FALSE(s) << cut;
+    EXPECT_EQ(s.message.find('\n'), std::string::npos);
+  }
+  for (size_t i = 100; i < out.size(); i += 5) {  // never a crash
+    std::string c = out;
+    c[i] = static_cast<char>(c[i] ^ 0x77);
+    TetMesh x;
+    (void)parse_vtk(c, "t.vtk", x);
+  }
+  std::string vtu;
+  ASSERT_TRUE(format_vtu(m, vtu));
+  for (size_t i = 300; i < vtu.size(); i += 11) {
+    std::string c = vtu;
+    c[i] = static_cast<char>(c[i] ^ 0x21);
+    TetMesh x;
+    (void)parse_vtu(c, "t.vtu", x);
+  }
+}
+
+TEST(IoVtkHostile, VtuErrors) {
+  std::string good;
+  ASSERT_TRUE(detail::format_vtu_encoded(sample_mesh(), good, true));
+  std::string bad = good;
+  const size_t at = bad.find("format=\"binary\">\n") + 20;
+  bad[at] = '#';
+  expect_error(bad, ErrorCode::Parse, 0, "base64", true);
+  bad = good;
+  bad.replace(bad.find("Name=\"types\""), 12, "Name=\"kinds\"");
+  expect_error(bad, ErrorCode::Parse, 0, "types", true);
+  expect_error("<VTKFile type=\"PolyData\">", ErrorCode::Unsupported, 1, "PolyData", true);
+  expect_error("<?xml version=\"1.0\"?>\n<Foo/>", ErrorCode::Parse, 2, "no <VTKFile>", true);
+  std::string asc;
+  ASSERT_TRUE(detail::format_vtu_encoded(sample_mesh(), asc, false));
+  const size_t p = asc.find("Name=\"Points\"");
+  const size_t q = asc.find('\n', p) + 1;
+  const long line = 1 + static_cast<long>(std::count(asc.begin(), asc.begin() + static_cast<std::ptrdiff_t>(q), '\n'));
+  asc.insert(q, "zz ");
+  expect_error(asc, ErrorCode::Parse, line, "'zz'", true);
+}
+
+// ------------------------------------------------------------ meshio
+
+TEST(IoVtkCross, MeshioReadsOurFiles) {
+  if (!have_meshio()) GTEST_SKIP() << "meshio not importable by /usr/bin/python3";
+  const std::string dir = tmp_dir();
+  const TetMesh m = sample_mesh();
+  int64_t ref_sum = 0, fixed_sum = 0;
+  for (int32_t r : m.tet_ref) ref_sum += r;
+  for (double v : m.point_fields[0].values) fixed_sum += static_cast<int64_t>(v);
+  for (Kind k : kKinds) {
+    SCOPED_TRACE(kind_name(k));
+    std::string out;
+    ASSERT_TRUE(format_kind(m, out, k));
+    const std::string in = dir + (k == Kind::VtkAscii || k == Kind::VtkBinary ? "/ours.vtk" : "/ours.vtu");
+    ASSERT_TRUE(write_file_atomic(in, out));
+    const std::string cmd =
+        "/usr/bin/python3 -c 'import meshio,sys\n"
+        "m=meshio.read(sys.argv[1])\n"
+        "nt=sum(len(c.data) for c in m.cells if c.type==\"tetra\")\n"
+        "s=sum(int(m.cell_data[\"ref\"][i].sum()) for i,c in enumerate(m.cells) if c.type==\"tetra\")\n"
+        "print(len(m.points), nt, s, int(m.point_data[\"fixed\"].sum()), repr(float(m.points[1][0])))' " +
+        in + " > " + dir + "/res.txt 2>" + dir + "/err.txt";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/err.txt");
+    std::istringstream ss(slurp(dir + "/res.txt"));
+    int64_t np = 0, nt = 0, sum = 0, fs_ = 0;
+    std::string y;
+    ss >> np >> nt >> sum >> fs_ >> y;
+    EXPECT_EQ(np, m.nv());
+    EXPECT_EQ(nt, m.nt());
+    EXPECT_EQ(sum, ref_sum);
+    EXPECT_EQ(fs_, fixed_sum);
+    double yv = 0;
+    ASSERT_TRUE(gvscan::parse_double(y, yv)) << y;
+    EXPECT_EQ(yv, m.xyz[3]);
+  }
+  fs::remove_all(dir);
+}
+
+TEST(IoVtkCross, MeshioWrittenFilesRead) {
+  if (!have_meshio()) GTEST_SKIP() << "meshio not importable by /usr/bin/python3";
+  const std::string dir = tmp_dir();
+  // (extension, meshio keyword arguments)
+  const std::pair<const char*, const char*> cases[] = {
+      {"a.vtu", ""},  // meshio default: binary, zlib-compressed
+      {"b.vtu", ",binary=False"},
+      {"c.vtu", ",binary=True,compression=None"},
+      {"d.vtk", ",binary=False"},
+      {"e.vtk", ",binary=True"},
+  };
+  for (const auto& [file, kw] : cases) {
+    SCOPED_TRACE(file);
+    const std::string out = dir + "/" + file;
+    const std::string cmd =
+        std::string("/usr/bin/python3 -c 'import meshio,numpy as np\n"
+                    "p=np.array([[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,1,1]],dtype=float)+np.array([0.1,0.2,0.3])\n"
+                    "c=[(\"tetra\",np.array([[0,1,2,3],[1,2,3,4]])),(\"triangle\",np.array([[0,1,2]]))]\n"
+                    "cd={\"medit:ref\":[np.array([4,9],dtype=np.int32),np.array([3],dtype=np.int32)]}\n"
+                    "pd={\"fixed\":np.array([1,0,1,0,1],dtype=np.int32)}\n"
+                    "meshio.write(\"") +
+        out + "\",meshio.Mesh(p,c,cell_data=cd,point_data=pd)" + kw + ")' > " + dir + "/err.txt 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << slurp(dir + "/err.txt");
+    TetMesh r;
+    OrientationReport rep;
+    const Status s = read_mesh(out, r, &rep);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(r.nv(), 5);
+    EXPECT_EQ(r.nt(), 2);
+    EXPECT_EQ(r.ntri(), 1);
+    EXPECT_EQ(r.tet_ref, (std::vector<int32_t>{4, 9}));
+    EXPECT_EQ(r.tri_ref, (std::vector<int32_t>{3}));
+    EXPECT_EQ(r.point(4)[0], 1.0 + 0.1);
+    ASSERT_EQ(r.point_fields.size(), 1u);
+    EXPECT_EQ(r.point_fields[0].values, (std::vector<double>{1, 0, 1, 0, 1}));
+    EXPECT_EQ(rep.negative, 0);
+  }
+  fs::remove_all(dir);
+}
+
+// ------------------------------------------------------------ shared meshes
+
+TEST(IoVtkShared, RealMeshesReadWithRightCounts) {
+  const std::string root = shared_meshes();
+  if (root.empty()) GTEST_SKIP() << "shared meshes not present";
+  const std::tuple<const char*, int32_t, int32_t> cases[] = {
+      {"tire/tire.vtk", 2570, 11098},
+      {"flat-tet-sphere/flat-tet-sphere.vtk", 4793, 23636},
+      {"cube-clip-5/cube-clip-5.vtk", 3408, 16637},
+  };
+  for (const auto& [file, nv, nt] : cases) {
+    SCOPED_TRACE(file);
+    const std::string path = root + "/" + file;
+    if (!fs::exists(path)) GTEST_SKIP() << path << " missing";
+    TetMesh m;
+    OrientationReport rep;
+    const Status s = read_mesh(path, m, &rep);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(m.nv(), nv);
+    EXPECT_EQ(m.nt(), nt);
+    EXPECT_TRUE(rep.inverted.empty());
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      const int32_t* q = m.tet(t);
+      ASSERT_EQ(orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])), Sign::Positive) << t;
+    }
+    // one region everywhere (GLOBAL_ID in flat-tet-sphere is not a region)
+    for (int32_t r : m.tet_ref) ASSERT_EQ(r, 0);
+    // point data "fixed" survives a write/read round trip, as do coordinates
+    ASSERT_FALSE(m.point_fields.empty());
+    std::string out;
+    ASSERT_TRUE(format_vtk(m, out, false));
+    TetMesh r;
+    ASSERT_TRUE(parse_vtk(out, "again.vtk", r));
+    EXPECT_EQ(0, std::memcmp(m.xyz.data(), r.xyz.data(), m.xyz.size() * sizeof(double)));
+    ASSERT_EQ(r.point_fields.size(), m.point_fields.size());
+    EXPECT_EQ(r.point_fields[0].values, m.point_fields[0].values);
+  }
+}
+
+TEST(IoVtkShared, TireFloat32CoordinatesAndCoincidentVertices) {
+  const std::string root = shared_meshes();
+  if (root.empty() || !fs::exists(root + "/tire/tire.vtk")) GTEST_SKIP() << "tire.vtk not present";
+  TetMesh m;
+  ASSERT_TRUE(read_mesh(root + "/tire/tire.vtk", m));
+  // "-3.500000 9.490000 6.290000": declared float, so the float32 values.
+  EXPECT_EQ(m.point(0)[0], -3.5);
+  EXPECT_EQ(m.point(0)[1], static_cast<double>(9.49f));
+  EXPECT_EQ(m.point(0)[2], static_cast<double>(6.29f));
+  std::map<std::tuple<double, double, double>, int> seen;
+  int pairs = 0;
+  for (int32_t v = 0; v < m.nv(); ++v) {
+    const double* p = m.point(v);
+    if (seen[{p[0], p[1], p[2]}]++ == 1) ++pairs;
+  }
+  EXPECT_EQ(pairs, 10);
+  const TetMesh::PointField* fixed = nullptr;
+  for (const auto& f : m.point_fields)
+    if (f.name == "fixed") fixed = &f;
+  ASSERT_NE(fixed, nullptr);
+  EXPECT_EQ(std::count(fixed->values.begin(), fixed->values.end(), 1.0), 1248);
+}
