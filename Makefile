@@ -11,9 +11,9 @@ TETOPT   := $(BUILD)/tetopt
 DEB_PKGS := build-essential cmake libcgal-dev libgmp-dev libmpfr-dev libboost-dev \
             libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen \
             python3 python3-numpy python3-scipy python3-meshio python3-pytest python3-gmsh \
-            python3-dev pybind11-dev libtbb-dev
+            python3-dev pybind11-dev libtbb-dev clang libclang-rt-14-dev
 
-.PHONY: all deps build demo test bench clean python
+.PHONY: all deps build demo test bench clean python fuzz test-sanitize
 
 all: build
 
@@ -42,6 +42,20 @@ test: build
 
 bench: build
 	bash bench/run_bench.sh $(BUILD)
+
+python: build
+	@echo "python module: $(BUILD)/python (PYTHONPATH=$(BUILD)/python /usr/bin/python3 -c 'import tetopt')"
+
+# libFuzzer targets (clang), each run for FUZZ_SECONDS; corpus in fuzz/corpus/.
+FUZZ_SECONDS ?= 60
+fuzz: deps
+	bash fuzz/run.sh $(FUZZ_SECONDS)
+
+# The whole test suite under AddressSanitizer + UndefinedBehaviorSanitizer.
+test-sanitize: deps
+	cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETOPT_SANITIZE=ON -DTETOPT_BUILD_BENCH=OFF
+	cmake --build build-asan -j $(JOBS)
+	cd build-asan && ctest --output-on-failure -j $(JOBS) -E "script\\.test_shared_meshes"
 
 clean:
 	rm -rf $(BUILD)
