@@ -1,0 +1,477 @@
+"""tetopt: improve tetrahedral meshes without touching their boundary.
+
+Python bindings of the tetopt C++ library (Liu et al. 2012: weighted
+optimisation-based smoothing and quality-driven topological transformations,
+combined).  NumPy arrays in, NumPy arrays out:
+
+    points  (n, 3) float64   vertex coordinates
+    tets    (m, 4) int32     0-based vertex ids, positively oriented
+                             (det(v1-v0, v2-v0, v3-v0) > 0; see
+                             include/tetopt/conventions.hpp)
+    refs    (m,)   int32     region ref per tet (Medit ref, Gmsh physical
+                             volume, VTK/TetGen region attribute)
+
+Constrained entities (never changed): a face is constrained when it lies on
+one tet (the boundary), between tets of different refs (an interface), or is
+listed (``constrained_faces`` / ``Mesh.triangles``).  A vertex is constrained
+when it lies on a constrained face, a listed edge, or is listed as required /
+corner.  Constrained vertices never move, bit for bit; constrained faces are
+never removed.  Every improve() run ends by proving it (see the report's
+``boundary_unchanged``).
+
+Errors: bad arguments (wrong shape or dtype, index out of range, NaN, inverted
+tets given to improve, non-manifold meshes) raise ValueError with a message
+naming the array, the 0-based row and the value; unreadable files raise
+OSError; an invariant failure (a bug in tetopt) raises RuntimeError.
+
+Example::
+
+    import tetopt
+    mesh = tetopt.read("part.mesh")
+    points, tets, refs, report = tetopt.improve(mesh.points, mesh.tets, mesh.refs,
+                                                constrained_faces=mesh.triangles)
+    print(report["before"]["alpha_worst"], "->", report["after"]["alpha_worst"])
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import warnings
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
+
+import numpy as np
+
+from . import _tetopt
+
+__all__ = [
+    "Mesh",
+    "improve",
+    "improve_mesh",
+    "quality",
+    "read",
+    "write",
+    "from_meshio",
+    "to_meshio",
+    "__version__",
+]
+
+__version__: str = _tetopt.__version__
+
+LogCallback = Callable[[str, str], Any]
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+@dataclasses.dataclass(eq=False)
+class Mesh:
+    """A tetrahedral mesh with everything its file carried (mirrors tetopt::TetMesh).
+
+    All index arrays are 0-based.  Optional fields may be None (meaning
+    "none"); :func:`read` fills every field.
+
+    Attributes:
+        points: (n, 3) float64 coordinates.
+        tets: (m, 4) int32 vertex ids, positively oriented.
+        refs: (m,) int32 region ref per tet (zeros when None).
+        point_refs: (n,) int32 vertex refs (Medit), written back unchanged.
+        triangles: (k, 3) int32 listed triangles; every listed triangle is
+            constrained (kept with its ref).
+        triangle_refs: (k,) int32 refs of the listed triangles.
+        edges: (e, 2) int32 listed edges; their vertices are constrained.
+        edge_refs: (e,) int32 refs of the listed edges.
+        required_vertices: vertex ids listed as required (constrained).
+        required_triangles: indices into ``triangles``.
+        required_edges: indices into ``edges``.
+        corners: vertex ids listed as corners (constrained).
+        ridges: indices into ``edges``.
+        groups: physical names as ``(dim, tag, name)`` tuples (Gmsh
+            $PhysicalNames), in file order.
+        tet_entities: (m,) Gmsh elementary entity tag per tet, or empty.
+        triangle_entities: (k,) Gmsh elementary entity tag per triangle, or empty.
+        point_data: per-vertex arrays the file carried (VTK point data), name ->
+            (n,) or (n, c) array; integer dtypes are written as integers.
+        flipped_on_read: True when the file stored tets in the opposite
+            orientation; a writer of the same format (``source_format``)
+            flips them back so the file keeps its convention.
+        source_format: the format the mesh was read from: '', 'medit',
+            'meditb', 'gmsh', 'vtk', 'vtu' or 'tetgen'.
+    """
+
+    points: np.ndarray
+    tets: np.ndarray
+    refs: Optional[np.ndarray] = None
+    point_refs: Optional[np.ndarray] = None
+    triangles: Optional[np.ndarray] = None
+    triangle_refs: Optional[np.ndarray] = None
+    edges: Optional[np.ndarray] = None
+    edge_refs: Optional[np.ndarray] = None
+    required_vertices: Optional[np.ndarray] = None
+    required_triangles: Optional[np.ndarray] = None
+    required_edges: Optional[np.ndarray] = None
+    corners: Optional[np.ndarray] = None
+    ridges: Optional[np.ndarray] = None
+    groups: List[Tuple[int, int, str]] = dataclasses.field(default_factory=list)
+    tet_entities: Optional[np.ndarray] = None
+    triangle_entities: Optional[np.ndarray] = None
+    point_data: Dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    flipped_on_read: bool = False
+    source_format: str = ""
+
+    def _as_dict(self) -> Dict[str, Any]:
+        # Shallow: the arrays themselves are handed to the C++ layer, which
+        # reads them in place (one copy into the library's own storage).
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def _from_dict(cls, d: Dict[str, Any]) -> "Mesh":
+        return cls(**d)
+
+    def validate(self) -> None:
+        """Raises ValueError when the arrays do not form a valid tetopt mesh
+        (shapes, dtypes, index ranges, finite coordinates)."""
+        _tetopt.validate_mesh(self._as_dict())
+
+    def __repr__(self) -> str:
+        def n(a: Any) -> int:
+            return 0 if a is None else len(a)
+
+        return (
+            f"tetopt.Mesh({n(self.points)} points, {n(self.tets)} tets, "
+            f"{n(self.triangles)} triangles, {n(self.edges)} edges, "
+            f"{len(self.groups)} groups, source_format={self.source_format!r})"
+        )
+
+
+def _options(mode: str, optimizer: str, weight: float, threshold: float, iterations: int, seed: int,
+             threads: int, check: bool) -> Any:
+    o = _tetopt.ImproveOptions()
+    for name, value, kind in (("mode", mode, str), ("optimizer", optimizer, str)):
+        if not isinstance(value, kind):
+            raise ValueError(f"{name}: expected a str, got {value!r}")
+        setattr(o, name, value)
+    for name, value in (("weight", weight), ("threshold", threshold)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise ValueError(f"{name}: expected a number, got {value!r}")
+        setattr(o, name, float(value))
+    for name, value in (("iterations", iterations), ("seed", seed), ("threads", threads)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise ValueError(f"{name}: expected an int, got {value!r}")
+        if not -(2**63) <= int(value) < 2**63:
+            raise ValueError(f"{name}: {value} is out of range")
+        setattr(o, name, int(value))
+    o.check = bool(check)
+    return o
+
+
+def improve(
+    points: Any,
+    tets: Any,
+    refs: Any = None,
+    *,
+    mode: str = "best",
+    weight: float = 0.75,
+    threshold: float = 0.3,
+    iterations: int = 10,
+    seed: int = 0,
+    threads: int = 0,
+    constrained_faces: Any = None,
+    optimizer: str = "paper",
+    check: bool = True,
+    log: Optional[LogCallback] = None,
+) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
+    """Improves a tetrahedral mesh; returns ``(points, tets, refs, report)``.
+
+    Mirrors ``tetopt::improve`` (include/tetopt/improve.hpp) and ``tetopt
+    improve``: constrained vertices never move (bit for bit), constrained
+    faces are never removed, every tet stays positive under the exact
+    orient3d, the volume of every region is kept; the run ends by checking
+    all of this (``check=False`` skips the proof, not recommended).
+
+    Args:
+        points: (n, 3) coordinates, float64 (other real dtypes are converted).
+        tets: (m, 4) integer vertex ids, 0-based.  All positively oriented,
+            or all negatively oriented (TetGen's convention; the result then
+            comes back in that convention too).  Inverted or flat tets among
+            positive ones raise ValueError naming them.
+        refs: (m,) integer region refs, or None for a single region (zeros).
+            Faces between different refs are interfaces and stay.
+        mode: 'best' (default: rounds of Algorithm 4, flips everywhere,
+            smoothing with both optimisers, rising thresholds, until nothing
+            improves), 'combined' (the paper's loop, §2), 'smooth' (weighted
+            smoothing alone, §3) or 'topo' (quality-driven flips alone, §4).
+        weight: C of eq. (3.4), the weight of boundary elements in the
+            smoothing objective, 0.5 <= C < 1 (0.5 = unweighted).
+        threshold: gamma, tets with alpha < gamma are poor, in (0, 1].
+        iterations: rounds (sweeps of the loop), 0..1000000.
+        seed: visiting order; same input and seed, same output.
+        threads: worker threads (0 = library default); results are identical
+            for any count.
+        constrained_faces: (k, 3) integer vertex triples of extra faces to keep
+            (e.g. the file's listed triangles, ``Mesh.triangles``).
+        optimizer: 'paper' (gradient + golden-section line search) or
+            'maxmin' (Freitag's nonsmooth max-min), for 'smooth'/'combined'.
+        check: prove the invariants at the end (recommended).
+        log: optional callable ``log(level, message)``, level one of
+            'debug', 'info', 'progress', 'warning'.
+
+    Returns:
+        points: (n, 3) float64, the same vertices (constrained ones bit-identical).
+        tets: (m', 4) int32, the new connectivity (flips change m).
+        refs: (m',) int32 region ref per new tet.
+        report: dict with the keys of ``tetopt improve --report`` JSON:
+            tool, version, input, output, options, before, after (quality
+            statistics as ``quality()``), operations, seconds,
+            boundary_unchanged, seconds_end_to_end.
+
+    Raises:
+        ValueError: bad arguments or an invalid mesh (message names it).
+        RuntimeError: an invariant failed (a bug in tetopt).
+        KeyboardInterrupt: Ctrl-C; checked between the driver's log messages.
+
+    The GIL is released while the library runs; the inputs are copied once
+    into the library's own arrays and the outputs are handed over without a
+    copy.
+    """
+    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check)
+    p, t, r, js = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log)
+    return p, t, r, json.loads(js)
+
+
+def improve_mesh(
+    mesh: Mesh,
+    *,
+    mode: str = "best",
+    weight: float = 0.75,
+    threshold: float = 0.3,
+    iterations: int = 10,
+    seed: int = 0,
+    threads: int = 0,
+    optimizer: str = "paper",
+    check: bool = True,
+    log: Optional[LogCallback] = None,
+) -> Tuple[Mesh, Dict[str, Any]]:
+    """Improves a whole :class:`Mesh` (as :func:`read` returns it); returns ``(mesh, report)``.
+
+    Same options and guarantees as :func:`improve`, and what the command
+    line does: every listed triangle and edge, required vertex and corner is
+    constrained, and refs, groups, Gmsh entities and point data come back so
+    that ``write()`` produces the file ``tetopt improve`` would.  The input
+    mesh is not modified.
+    """
+    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check)
+    if not isinstance(mesh, Mesh):
+        raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
+    d, js = _tetopt.improve_mesh(mesh._as_dict(), o, log)
+    return Mesh._from_dict(d), json.loads(js)
+
+
+def quality(points: Any, tets: Any = None, refs: Any = None, *, constrained_faces: Any = None) -> Dict[str, Any]:
+    """Quality statistics and per-tet measures of a mesh.
+
+    Call as ``quality(points, tets[, refs], constrained_faces=...)`` or
+    ``quality(mesh)`` with a :class:`Mesh`.  Measures (include/tetopt/quality.hpp):
+    alpha = 6*sqrt(6)*V / (sum of face areas * longest edge), Liu et al. eq.
+    3.1: 1 for the regular tet, 0 when flat, negative when inverted; dihedral
+    angles in degrees (70.53 for the regular tet).
+
+    Returns:
+        A dict with the keys of ``tetopt quality --json`` (vertices, tets,
+        boundary_tets, kind_counts, alpha_worst, alpha_mean,
+        alpha_boundary_worst, ..., dihedral_min, dihedral_max, histograms;
+        NaN statistics come out as None, as in the JSON) plus ``per_tet``, a
+        dict of (m,) arrays: ``alpha`` (float64), ``dihedral_min`` and
+        ``dihedral_max`` (float64, degrees) and ``kind`` (int8, the number
+        of constrained vertices, 0..4; 4 = the paper's all-boundary element).
+
+    Like the CLI, a mesh whose tets are mostly negative is taken as stored in
+    the opposite convention and measured flipped; inverted tets are allowed
+    (their alpha is negative).
+    """
+    if isinstance(points, Mesh):
+        if tets is not None or refs is not None or constrained_faces is not None:
+            raise ValueError("quality(mesh) takes no other array arguments")
+        d = points._as_dict()
+    else:
+        if tets is None:
+            raise ValueError("tets: required (or pass a tetopt.Mesh)")
+        d = {"points": points, "tets": tets, "refs": refs, "triangles": constrained_faces}
+    js, alpha, dmin, dmax, kind = _tetopt.quality_mesh(d)
+    out: Dict[str, Any] = json.loads(js)
+    out["per_tet"] = {"alpha": alpha, "dihedral_min": dmin, "dihedral_max": dmax, "kind": kind}
+    return out
+
+
+def read(path: PathLike) -> Mesh:
+    """Reads a mesh file; format by extension.
+
+    .mesh/.meshb (Medit), .msh (Gmsh 2.2/4.1, ASCII and binary), .vtk/.vtu
+    (VTK), .node/.ele[/.face] (TetGen).  Tets are normalised to positive
+    orientation (``Mesh.flipped_on_read`` remembers the file's convention);
+    refs, listed triangles and edges, required entities, physical names,
+    Gmsh entities and VTK point data are kept.  Inverted or flat tets give a
+    RuntimeWarning naming them (0-based ids).
+
+    Raises:
+        OSError: the file cannot be read.
+        ValueError: the file is malformed or the mesh invalid ("FILE:LINE: what").
+    """
+    d, inverted, flat = _tetopt.read(path)
+    for ids, what in ((inverted, "inverted"), (flat, "flat (zero-volume)")):
+        if len(ids):
+            shown = ", ".join(str(int(i)) for i in ids[:10]) + (", ..." if len(ids) > 10 else "")
+            warnings.warn(f"{os.fspath(path)}: {len(ids)} {what} tets (0-based ids {shown})", RuntimeWarning,
+                          stacklevel=2)
+    return Mesh._from_dict(d)
+
+
+def write(path: PathLike, mesh: Any, *, msh_version: int = 41, binary: bool = False, meshb_version: int = 3) -> None:
+    """Writes a :class:`Mesh` (or a meshio.Mesh, converted by :func:`from_meshio`).
+
+    Format by extension, as :func:`read`; tets are written in the file's own
+    convention (see ``Mesh.flipped_on_read``); coordinates with 17
+    significant digits (or raw doubles), so they read back bit-identical.
+    The file is written to a temporary name and renamed, so a failure never
+    leaves half a file.
+
+    Args:
+        msh_version: 22 or 41 for .msh.
+        binary: binary .msh / .vtk (.meshb is always binary).
+        meshb_version: GMF version of .meshb output: 2, 3 or 4.
+    """
+    if not isinstance(mesh, Mesh):
+        if hasattr(mesh, "cells") and hasattr(mesh, "points"):
+            mesh = from_meshio(mesh)
+        else:
+            raise ValueError(f"mesh: expected a tetopt.Mesh or meshio.Mesh, got {type(mesh).__name__}")
+    if isinstance(binary, (bool, np.bool_)) is False:
+        raise ValueError(f"binary: expected a bool, got {binary!r}")
+    for name, value in (("msh_version", msh_version), ("meshb_version", meshb_version)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise ValueError(f"{name}: expected an int, got {value!r}")
+    _tetopt.write(path, mesh._as_dict(), int(msh_version), bool(binary), int(meshb_version))
+
+
+# ---------------------------------------------------------------- meshio
+
+_REF_KEYS = ("medit:ref", "gmsh:physical", "cell_tags", "CellEntityIds", "tetgen:ref")
+
+
+def from_meshio(m: Any, ref_key: Optional[str] = None) -> Mesh:
+    """Converts a ``meshio.Mesh`` to a :class:`Mesh`.
+
+    Takes the "tetra" cells (required), "triangle" cells as listed triangles
+    and "line" cells as listed edges.  Refs come from ``cell_data[ref_key]``,
+    by default the first of 'medit:ref', 'gmsh:physical', 'cell_tags',
+    'CellEntityIds', 'tetgen:ref' present; Gmsh entities from
+    'gmsh:geometrical'; vertex refs from ``point_data['medit:ref']``; groups
+    from ``field_data`` (name -> [tag, dim]); other point data is kept.
+    Higher-order cells ('tetra10', ...) raise ValueError.
+    """
+    points = np.asarray(m.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise ValueError(f"meshio points: expected shape (n, 3), got {points.shape}")
+    if points.shape[1] == 2:
+        raise ValueError("meshio points are 2-D; tetopt needs 3-D points")
+    cell_data = dict(getattr(m, "cell_data", {}) or {})
+    key = ref_key
+    if key is None:
+        key = next((k for k in _REF_KEYS if k in cell_data), None)
+    elif key not in cell_data:
+        raise ValueError(f"ref_key {key!r} is not in the meshio cell_data ({', '.join(cell_data) or 'none'})")
+    parts: Dict[str, List[np.ndarray]] = {"tetra": [], "triangle": [], "line": []}
+    refs: Dict[str, List[np.ndarray]] = {"tetra": [], "triangle": [], "line": []}
+    ents: Dict[str, List[np.ndarray]] = {"tetra": [], "triangle": [], "line": []}
+    has_ent = "gmsh:geometrical" in cell_data
+    for i, block in enumerate(m.cells):
+        ctype, data = block.type, np.asarray(block.data)
+        if ctype in ("tetra10", "tetra20", "tetra35", "tetra56"):
+            raise ValueError(f"meshio cell block {i} is {ctype}; tetopt handles linear tets only")
+        if ctype not in parts:
+            continue
+        parts[ctype].append(data)
+        n = len(data)
+        refs[ctype].append(np.asarray(cell_data[key][i]).reshape(n) if key else np.zeros(n, np.int32))
+        if has_ent:
+            ents[ctype].append(np.asarray(cell_data["gmsh:geometrical"][i]).reshape(n))
+
+    def cat(lst: List[np.ndarray], cols: int) -> np.ndarray:
+        if not lst:
+            return np.zeros((0, cols) if cols else (0,), np.int32)
+        return np.concatenate(lst)
+
+    if not parts["tetra"]:
+        raise ValueError("the meshio mesh has no 'tetra' cells")
+    point_data = {k: np.asarray(v) for k, v in (getattr(m, "point_data", {}) or {}).items() if k != "medit:ref"}
+    pr = (getattr(m, "point_data", {}) or {}).get("medit:ref")
+    groups = []
+    for name, v in (getattr(m, "field_data", {}) or {}).items():
+        v = np.asarray(v).reshape(-1)
+        if len(v) >= 2:
+            groups.append((int(v[1]), int(v[0]), str(name)))
+    return Mesh(
+        points=points,
+        tets=cat(parts["tetra"], 4),
+        refs=cat(refs["tetra"], 0),
+        point_refs=None if pr is None else np.asarray(pr),
+        triangles=cat(parts["triangle"], 3),
+        triangle_refs=cat(refs["triangle"], 0),
+        edges=cat(parts["line"], 2),
+        edge_refs=cat(refs["line"], 0),
+        groups=groups,
+        tet_entities=cat(ents["tetra"], 0) if has_ent else None,
+        triangle_entities=cat(ents["triangle"], 0) if has_ent else None,
+        point_data=point_data,
+    )
+
+
+def to_meshio(mesh: Any, tets: Any = None, refs: Any = None) -> Any:
+    """Converts to a ``meshio.Mesh``: ``to_meshio(mesh)`` or ``to_meshio(points, tets[, refs])``.
+
+    Cells: "tetra" (+ "triangle" and "line" for listed triangles and edges).
+    Refs go to cell_data 'medit:ref' and 'gmsh:physical', Gmsh entities (or
+    the refs when there are none) to 'gmsh:geometrical', so meshio writes
+    them to Medit and Gmsh files; vertex refs to point_data 'medit:ref';
+    groups to field_data (name -> [tag, dim]).  Requires meshio.
+    """
+    try:
+        import meshio  # type: ignore[import-not-found]
+    except ImportError as e:  # pragma: no cover - depends on the installation
+        raise ImportError("to_meshio needs meshio (Debian: python3-meshio, or pip install meshio)") from e
+    if not isinstance(mesh, Mesh):
+        if tets is None:
+            raise ValueError("tets: required (or pass a tetopt.Mesh)")
+        mesh = Mesh(points=mesh, tets=tets, refs=refs)
+    elif tets is not None or refs is not None:
+        raise ValueError("to_meshio(mesh) takes no other array arguments")
+    mesh.validate()
+    points = np.asarray(mesh.points, dtype=np.float64)
+    t = np.asarray(mesh.tets)
+    blocks = [("tetra", t)]
+    r = [np.zeros(len(t), np.int32) if mesh.refs is None else np.asarray(mesh.refs)]
+    e = [np.asarray(mesh.tet_entities) if mesh.tet_entities is not None and len(mesh.tet_entities) else r[0]]
+    if mesh.triangles is not None and len(mesh.triangles):
+        tri = np.asarray(mesh.triangles).reshape(-1, 3)
+        blocks.append(("triangle", tri))
+        tr = np.zeros(len(tri), np.int32) if mesh.triangle_refs is None or not len(mesh.triangle_refs) \
+            else np.asarray(mesh.triangle_refs)
+        r.append(tr)
+        te = mesh.triangle_entities
+        e.append(np.asarray(te) if te is not None and len(te) else tr)
+    if mesh.edges is not None and len(mesh.edges):
+        ed = np.asarray(mesh.edges).reshape(-1, 2)
+        blocks.append(("line", ed))
+        er = np.zeros(len(ed), np.int32) if mesh.edge_refs is None or not len(mesh.edge_refs) \
+            else np.asarray(mesh.edge_refs)
+        r.append(er)
+        e.append(er)
+    point_data = dict(mesh.point_data or {})
+    if mesh.point_refs is not None and len(mesh.point_refs):
+        point_data["medit:ref"] = np.asarray(mesh.point_refs)
+    field_data = {name: np.array([tag, dim]) for dim, tag, name in mesh.groups}
+    return meshio.Mesh(
+        points,
+        blocks,
+        point_data=point_data,
+        cell_data={"medit:ref": r, "gmsh:physical": r, "gmsh:geometrical": e},
+        field_data=field_data,
+    )
