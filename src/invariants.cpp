@@ -33,6 +33,15 @@ std::vector<std::array<int32_t, 5>> constrained_faces(const TetMesh& m) {
 }
 }  // namespace
 
+std::vector<int32_t> nonpositive_tets(const TetMesh& m) {
+  std::vector<int32_t> out;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    if (orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])) != Sign::Positive) out.push_back(t);
+  }
+  return out;
+}
+
 InvariantSnapshot capture_invariants(const TetMesh& m) {
   InvariantSnapshot s;
   s.nv = m.nv();
@@ -45,6 +54,12 @@ InvariantSnapshot capture_invariants(const TetMesh& m) {
   s.region_volume = region_volumes(m);
   s.tris = m.tris;
   s.tri_ref = m.tri_ref;
+  const std::vector<int32_t> bad = nonpositive_tets(m);
+  s.nonpositive = static_cast<int64_t>(bad.size());
+  for (int32_t t : bad) s.tangled_vertices.insert(s.tangled_vertices.end(), m.tet(t), m.tet(t) + 4);
+  std::sort(s.tangled_vertices.begin(), s.tangled_vertices.end());
+  s.tangled_vertices.erase(std::unique(s.tangled_vertices.begin(), s.tangled_vertices.end()),
+                           s.tangled_vertices.end());
   return s;
 }
 
@@ -55,11 +70,21 @@ Status check_invariants(const TetMesh& m, const InvariantSnapshot& b) {
     if (std::memcmp(m.point(b.vertices[i]), &b.coords[3 * i], 3 * sizeof(double)) != 0)
       return fail("constrained vertex " + std::to_string(b.vertices[i] + 1) + " moved");
   if (m.tris != b.tris || m.tri_ref != b.tri_ref) return fail("listed boundary triangles or their refs changed");
-  for (int32_t t = 0; t < m.nt(); ++t) {
+  // Orientation: no tet may become inverted or flat outside the input's own
+  // tangles, and their number may not grow (see the header).
+  const std::vector<int32_t> bad = nonpositive_tets(m);
+  const auto tangled = [&](int32_t v) {
+    return std::binary_search(b.tangled_vertices.begin(), b.tangled_vertices.end(), v);
+  };
+  for (int32_t t : bad) {
     const int32_t* v = m.tet(t);
-    if (orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])) != Sign::Positive)
-      return fail("tetrahedron " + std::to_string(t + 1) + " is inverted or flat");
+    if (!tangled(v[0]) || !tangled(v[1]) || !tangled(v[2]) || !tangled(v[3]))
+      return fail("tetrahedron " + std::to_string(t + 1) + " is inverted or flat" +
+                  (b.nonpositive ? " (outside the input's inverted tets)" : ""));
   }
+  if (static_cast<int64_t>(bad.size()) > b.nonpositive)
+    return fail("inverted or flat tets grew from " + std::to_string(b.nonpositive) + " to " +
+                std::to_string(bad.size()));
   const auto faces = constrained_faces(m);
   if (faces != b.faces) {
     size_t lost = 0;

@@ -5,9 +5,20 @@
 // constrained faces (boundary, region interfaces, listed triangles) as sorted
 // vertex triples with the refs on either side, and the volume of every region.
 // After improving, check_invariants() proves the result keeps the promise:
-// same vertices at the same bits, the same constrained faces, every tet
-// positive under the exact orient3d, region volumes equal to 1e-9 of the total
-// volume.  Any failure is a bug: the caller must not write the mesh.
+// same vertices at the same bits, the same constrained faces, no tet made
+// inverted or flat (exact orient3d, see below), region volumes equal to 1e-9
+// of the total volume.  Any failure is a bug: the caller must not write the
+// mesh.
+//
+// Inverted or flat input tets.  A mesh may arrive tangled; tetopt repairs
+// what it can (untangle.hpp) but must never make it worse.  Let N0 be the
+// number of non-positive (inverted or flat) tets in the snapshot and S the
+// set of vertices of those tets.  The check passes when, afterwards,
+//   (1) the number of non-positive tets is <= N0, and
+//   (2) every non-positive tet has all four vertices in S.
+// So a positive input mesh must stay entirely positive (N0 = 0, S empty), a
+// tangled one may only keep (a subset of) its tangles, and no region of
+// positive input tets can become inverted.
 // Cost: O(nt log nt) time, about 12 bytes per constrained face of memory.
 #pragma once
 #include <array>
@@ -28,7 +39,12 @@ struct InvariantSnapshot {
   std::vector<std::array<int32_t, 5>> faces;  ///< sorted (a,b,c, ref inside, ref outside or -1)
   std::vector<std::pair<int32_t, double>> region_volume;
   std::vector<int32_t> tris, tri_ref;         ///< listed triangles as read
+  int64_t nonpositive = 0;                    ///< inverted or flat tets (exact), N0 above
+  std::vector<int32_t> tangled_vertices;      ///< S above: vertices of those tets, ascending
 };
+
+/// Ids of the tets that are not Positive under the exact orient3d (ascending).
+std::vector<int32_t> nonpositive_tets(const TetMesh& m);
 
 /// Requires m's topology (build_topology).
 InvariantSnapshot capture_invariants(const TetMesh& m);

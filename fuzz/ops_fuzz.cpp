@@ -1,0 +1,130 @@
+// libFuzzer target: random sequences of smoothing, topological operations and
+// untangling on a small generated box mesh, validating after every step.
+//
+// Input layout: 6 header bytes (cells per axis, jitter, regions, seed,
+// tangle count), then tangle records (3 bytes: vertex, move) that drag free
+// vertices to make the mesh tangled before the snapshot, then 4-byte
+// operation records (op, a, b, c).  After every operation: validate(Cheap),
+// validate(Full) when the snapshot had no inverted tet, check_invariants
+// against the snapshot, and the untangle promise (never more non-positive
+// tets).  Any failure aborts.
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "tetopt/generate.hpp"
+#include "tetopt/invariants.hpp"
+#include "tetopt/mesh.hpp"
+#include "tetopt/smooth.hpp"
+#include "tetopt/topo.hpp"
+#include "tetopt/untangle.hpp"
+
+namespace {
+
+[[noreturn]] void die(const std::string& what) {
+  std::fprintf(stderr, "tetopt ops fuzz: %s\n", what.c_str());
+  std::abort();
+}
+
+struct Reader {
+  const uint8_t* p;
+  size_t n;
+  size_t i = 0;
+  bool more(size_t k) const { return i + k <= n; }
+  uint8_t u8() { return i < n ? p[i++] : 0; }
+};
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace tetopt;
+  Reader r{data, size};
+  if (!r.more(6)) return 0;
+  BoxMeshOptions bo;
+  bo.nx = 1 + r.u8() % 3;
+  bo.ny = 1 + r.u8() % 3;
+  bo.nz = 1 + r.u8() % 3;
+  const uint8_t jr = r.u8();
+  bo.jitter = 0.45 * (jr & 0x7f) / 127.0;
+  bo.regions = (jr & 0x80) ? 2 : 1;
+  bo.seed = r.u8();
+  const int tangles = r.u8() % 4;
+  TetMesh m = make_box_mesh(bo);
+  if (Status s = build_topology(m); !s) die("build_topology of a generated mesh: " + s.message);
+  if (Status s = validate(m); !s) die("generated mesh invalid: " + s.message);
+
+  // Tangle: move a free vertex by up to +-2 cells per axis (connectivity kept).
+  for (int k = 0; k < tangles && r.more(3); ++k) {
+    const int32_t v = r.u8() % m.nv();
+    const uint8_t a = r.u8(), b = r.u8();
+    if (m.vert_constrained[v]) continue;
+    double* p = m.point(v);
+    p[0] += ((a & 15) - 7.5) / 3.75;
+    p[1] += ((a >> 4) - 7.5) / 3.75;
+    p[2] += ((b & 15) - 7.5) / 3.75;
+  }
+  const InvariantSnapshot snap = capture_invariants(m);
+  int64_t nonpos = snap.nonpositive;
+
+  auto check = [&](const char* op) {
+    if (Status s = validate(m, ValidateLevel::Cheap); !s) die(std::string(op) + ": validate(Cheap): " + s.message);
+    if (snap.nonpositive == 0)
+      if (Status s = validate(m, ValidateLevel::Full); !s) die(std::string(op) + ": validate(Full): " + s.message);
+    if (Status s = check_invariants(m, snap); !s) die(std::string(op) + ": check_invariants: " + s.message);
+    const int64_t now = static_cast<int64_t>(nonpositive_tets(m).size());
+    if (now > nonpos) die(std::string(op) + ": non-positive tets grew");
+    nonpos = now;
+  };
+
+  TopoOptions to;
+  for (int steps = 0; steps < 64 && r.more(4); ++steps) {
+    const uint8_t op = r.u8(), a = r.u8(), b = r.u8(), c = r.u8();
+    const int32_t t = ((a << 8) | b) % m.nt();
+    const int32_t v = ((a << 8) | b) % m.nv();
+    to.must_improve = !(c & 0x40);
+    to.worsen_bound = (c & 0x40) ? 0.5 : 0.0;
+    to.quality_threshold = 0.1 + (c & 7) * 0.15;
+    switch (op % 10) {
+      case 0: {
+        SmoothOptions so;
+        so.optimizer = (c & 1) ? Optimizer::MaxMin : Optimizer::Paper;
+        so.weight = 0.5 + 0.49 * ((c >> 1) & 7) / 7.0;
+        smooth_vertex(m, v, so);
+        check("smooth_vertex");
+        break;
+      }
+      case 1: flip_23(m, t, c & 3, to); check("flip_23"); break;
+      case 2: flip_32(m, t, c % 6, to); check("flip_32"); break;
+      case 3: remove_edge(m, t, c % 6, to); check("remove_edge"); break;
+      case 4: remove_multi_face(m, t, c & 3, to); check("remove_multi_face"); break;
+      case 5: {
+        TopoEditor ed(m, to);
+        ed.improve_tet(t, c & 0x80);
+        ed.finish();
+        check("improve_tet");
+        break;
+      }
+      case 6: flip_pass(m, to); check("flip_pass"); break;
+      case 7: remove_all_boundary_tets(m, to); check("remove_all_boundary_tets"); break;
+      case 8: {
+        SmoothOptions so;
+        so.optimizer = (c & 1) ? Optimizer::MaxMin : Optimizer::Paper;
+        so.iterations = 1 + (c >> 1) % 3;
+        so.seed = a;
+        so.all_vertices = c & 0x80;
+        smooth_pass(m, so);
+        check("smooth_pass");
+        break;
+      }
+      case 9: {
+        UntangleStats us = untangle(m);
+        if (!us.status) die("untangle: " + us.status.message);
+        if (us.nonpositive_after > us.nonpositive_before) die("untangle made more non-positive tets");
+        check("untangle");
+        break;
+      }
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (clang, ASan+UBSan) in build-fuzz and runs each
+# for SECONDS (default 60) on its corpus.
+#   usage: fuzz/run.sh [SECONDS] [TARGET...]      TARGET: medit meditb gmsh vtk vtu tetgen ops
+#   FUZZ_MERGE=1   merge the new interesting inputs into fuzz/corpus/TARGET
+#                  (minimised with -merge=1; keep the committed corpus < 2 MB)
+#   FUZZ_JOBS=N    build parallelism (default 2)
+# New inputs found during a run go to build-fuzz/corpus/TARGET (not committed);
+# crashes go to build-fuzz/artifacts/ and make the script exit 1.  Every
+# crash must become a regression test (tests/regression/, test_hostile.cpp).
+set -u
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+secs=${1:-60}; shift || true
+targets=${*:-medit meditb gmsh vtk vtu tetgen ops}
+build=${FUZZ_BUILD:-$root/build-fuzz}
+clangxx=$(command -v clang++ || true)
+if [ -z "$clangxx" ]; then echo "fuzz: clang++ not found (apt-get install clang libclang-rt-14-dev)" >&2; exit 2; fi
+if [ ! -f "$build/CMakeCache.txt" ]; then
+  CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DTETOPT_BUILD_FUZZ=ON \
+    -DTETOPT_BUILD_TESTS=OFF -DTETOPT_BUILD_BENCH=OFF -DTETOPT_BUILD_PYTHON=OFF > /dev/null || exit 2
+fi
+tlist=""; for t in $targets; do tlist="$tlist ${t}_fuzz"; done
+cmake --build "$build" -j "${FUZZ_JOBS:-2}" --target $tlist || exit 2
+mkdir -p "$build/artifacts"
+status=0
+for t in $targets; do
+  work="$build/corpus/$t"; seeds="$here/corpus/$t"
+  mkdir -p "$work" "$seeds"
+  echo "== fuzz $t for ${secs}s"
+  "$build/${t}_fuzz" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
+      -artifact_prefix="$build/artifacts/${t}-" -print_final_stats=1 "$work" "$seeds" 2>&1 |
+    grep -E "^(#[0-9]+ +DONE|==[0-9]+==ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|Test unit written|runtime error" 
+  rc=${PIPESTATUS[0]}
+  if [ "$rc" -ne 0 ]; then echo "fuzz $t: FAILED (exit $rc), see $build/artifacts/" >&2; status=1; fi
+  if [ "${FUZZ_MERGE:-0}" = 1 ]; then
+    "$build/${t}_fuzz" -merge=1 -max_len=8192 "$seeds" "$work" > /dev/null 2>&1
+  fi
+done
+exit $status
