@@ -4,12 +4,18 @@
 #include "tetopt/smooth.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <functional>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "tetopt/conventions.hpp"
@@ -153,6 +159,7 @@ inline int slot_of(const TetMesh& m, int32_t t, int32_t v) {
 struct Scratch {
   std::vector<LocalTet> tets;
   std::vector<double> alpha, grad;  // MaxMin: per-tet alpha and gradient (3 each)
+  std::vector<double> star_alpha;   // alphas of the star at the last candidate checked
   double origin[3] = {0, 0, 0};
   double mean_len = 0;
   int n = 0;
@@ -215,7 +222,9 @@ double star_worst_alpha(const Scratch& s, const double* x) {
 // evaluated exactly as vertex_objective does once v sits at p (coordinates
 // relative to p) and alpha exactly as compute_stats does (tetopt::alpha on the
 // tet's own vertex order).
-void star_at(const TetMesh& m, int32_t v, const double* p, double C, double* f_out, double* worst_out) {
+// When alphas_out is given, it receives each star tet's alpha (CSR order).
+void star_at(const TetMesh& m, int32_t v, const double* p, double C, double* f_out, double* worst_out,
+             double* alphas_out = nullptr) {
   double f = 0, worst = kInf;
   for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
     const int32_t t = *it;
@@ -231,7 +240,9 @@ void star_at(const TetMesh& m, int32_t v, const double* p, double C, double* f_o
       const int32_t* tv = m.tet(t);
       const double* q[4];
       for (int k = 0; k < 4; ++k) q[k] = k == slot ? p : m.point(tv[k]);
-      worst = std::min(worst, alpha(q[0], q[1], q[2], q[3]));
+      const double a = alpha(q[0], q[1], q[2], q[3]);
+      worst = std::min(worst, a);
+      if (alphas_out) alphas_out[it - m.star_begin(v)] = a;
     }
   }
   if (f_out) *f_out = f;
@@ -501,11 +512,20 @@ double mesh_objective(const TetMesh& m, double weight) {
   return s.value();
 }
 
-SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o) {
+namespace {
+
+// One vertex solve (see the essay: optimisers and commit rule).  own_before /
+// own_after receive the vertex's own measure before and after (Paper: f_v,
+// MaxMin: the star's worst alpha) and, after Applied, s.star_alpha holds the
+// alpha of every star tet (CSR order) at the new position: bit for bit what
+// tet_alpha() returns there, so a pass can update its cache without
+// recomputing.
+SmoothResult solve_vertex(TetMesh& m, int32_t v, const SmoothOptions& o, Scratch& s, double& own_before,
+                          double& own_after) {
   if (m.vert_constrained[v] || m.star_begin(v) == m.star_end(v)) return SmoothResult::BoundaryLocked;
-  thread_local Scratch s;
   const double C = clamp_weight(o.weight);
   gather(m, v, C, s);
+  if (static_cast<int>(s.star_alpha.size()) < s.n) s.star_alpha.resize(s.n);
   const bool maxmin = o.optimizer == Optimizer::MaxMin;
   double x[3];
   const bool ok = maxmin ? optimize_maxmin(s, o, x) : optimize_paper(s, o, x);
@@ -513,6 +533,7 @@ SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o) {
 
   double f_old = 0, worst_old = 0;
   star_at(m, v, s.origin, C, maxmin ? nullptr : &f_old, &worst_old);
+  own_before = maxmin ? worst_old : f_old;
   bool inverted = false;
   for (int attempt = 0; attempt < 5; ++attempt, x[0] *= 0.5, x[1] *= 0.5, x[2] *= 0.5) {
     const double p[3] = {s.origin[0] + x[0], s.origin[1] + x[1], s.origin[2] + x[2]};
@@ -522,7 +543,7 @@ SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o) {
       continue;
     }
     double f_new = 0, worst_new = 0;
-    star_at(m, v, p, C, maxmin ? nullptr : &f_new, &worst_new);
+    star_at(m, v, p, C, maxmin ? nullptr : &f_new, &worst_new, s.star_alpha.data());
     bool accept;
     if (maxmin) {
       accept = worst_old > 0 ? worst_new >= worst_old + o.margin * worst_old : worst_new > worst_old;
@@ -533,37 +554,191 @@ SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o) {
     if (!accept) continue;
     double* q = m.point(v);
     q[0] = p[0]; q[1] = p[1]; q[2] = p[2];
+    own_after = maxmin ? worst_new : f_new;
     return SmoothResult::Applied;
   }
   return inverted ? SmoothResult::Inverted : SmoothResult::NotImproved;
 }
 
+Scratch& thread_scratch() {
+  thread_local Scratch s;
+  return s;
+}
+
+// A minimal fork-join pool for one pass: run(n, f) calls f(i) for every i in
+// [0, n) on the calling thread and the workers (chunks handed out through an
+// atomic counter) and returns when all calls are done.  Which thread runs
+// which i is left to chance; callers make each f(i) write only its own data,
+// so results never depend on it.
+class WorkerPool {
+ public:
+  explicit WorkerPool(int threads) {
+    for (int i = 1; i < threads; ++i) workers_.emplace_back([this] { loop(); });
+  }
+  ~WorkerPool() {
+    {
+      std::lock_guard<std::mutex> l(mu_);
+      quit_ = true;
+      ++generation_;
+    }
+    wake_.notify_all();
+    for (std::thread& w : workers_) w.join();
+  }
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  void run(int64_t n, int64_t chunk, const std::function<void(int64_t)>& f) {
+    if (workers_.empty() || n <= chunk) {
+      for (int64_t i = 0; i < n; ++i) f(i);
+      return;
+    }
+    {
+      std::lock_guard<std::mutex> l(mu_);
+      job_ = &f;
+      n_ = n;
+      chunk_ = chunk;
+      next_.store(0, std::memory_order_relaxed);
+      busy_ = static_cast<int>(workers_.size());
+      ++generation_;
+    }
+    wake_.notify_all();
+    work();
+    std::unique_lock<std::mutex> l(mu_);
+    done_.wait(l, [this] { return busy_ == 0; });
+    job_ = nullptr;
+  }
+
+ private:
+  void work() {
+    for (;;) {
+      const int64_t b = next_.fetch_add(chunk_, std::memory_order_relaxed);
+      if (b >= n_) return;
+      const int64_t e = std::min(n_, b + chunk_);
+      for (int64_t i = b; i < e; ++i) (*job_)(i);
+    }
+  }
+  void loop() {
+    uint64_t seen = 0;
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> l(mu_);
+        wake_.wait(l, [&] { return generation_ != seen; });
+        seen = generation_;
+        if (quit_) return;
+      }
+      work();
+      std::lock_guard<std::mutex> l(mu_);
+      if (--busy_ == 0) done_.notify_one();
+    }
+  }
+
+  std::vector<std::thread> workers_;
+  std::mutex mu_;
+  std::condition_variable wake_, done_;
+  const std::function<void(int64_t)>* job_ = nullptr;
+  int64_t n_ = 0, chunk_ = 1;
+  std::atomic<int64_t> next_{0};
+  int busy_ = 0;
+  uint64_t generation_ = 0;
+  bool quit_ = false;
+};
+
+int resolve_threads(int t) {
+  if (t > 0) return t;
+  const unsigned h = std::thread::hardware_concurrency();
+  return h > 0 ? static_cast<int>(h) : 1;
+}
+
+}  // namespace
+
+SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o) {
+  double before = 0, after = 0;
+  return solve_vertex(m, v, o, thread_scratch(), before, after);
+}
+
 SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log) {
+  return smooth_pass(m, o, log, nullptr);
+}
+
+SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, std::vector<double>* alpha_cache) {
   const auto t_start = std::chrono::steady_clock::now();
   SmoothStats st;
   const int32_t nv = m.nv(), nt = m.nt();
   const double C = clamp_weight(o.weight);
-  st.objective_before = mesh_objective(m, C);
+  const int threads = resolve_threads(o.threads);
+  std::unique_ptr<WorkerPool> pool;
+  auto get_pool = [&]() -> WorkerPool& {
+    if (!pool) pool = std::make_unique<WorkerPool>(threads);
+    return *pool;
+  };
 
-  std::vector<double> qa(nt);
-  double worst = kInf;
-  for (int32_t t = 0; t < nt; ++t) {
-    qa[t] = tet_alpha(m, t);
-    worst = std::min(worst, qa[t]);
+  // Per-tet alpha cache: the caller's when it has the right size (trusted),
+  // else computed here (in parallel blocks: every entry is independent).
+  std::vector<double> own_cache;
+  std::vector<double>& qa = alpha_cache ? *alpha_cache : own_cache;
+  if (static_cast<int32_t>(qa.size()) != nt) {
+    qa.resize(nt);
+    constexpr int32_t kBlock = 8192;
+    const int64_t blocks = (static_cast<int64_t>(nt) + kBlock - 1) / kBlock;
+    auto fill = [&](int64_t b) {
+      const int32_t e = static_cast<int32_t>(std::min<int64_t>(nt, (b + 1) * kBlock));
+      for (int32_t t = static_cast<int32_t>(b * kBlock); t < e; ++t) qa[t] = tet_alpha(m, t);
+    };
+    if (threads > 1 && blocks > 1) get_pool().run(blocks, 1, fill);
+    else for (int64_t b = 0; b < blocks; ++b) fill(b);
   }
-  st.worst_alpha_before = worst;
+  // f of eq. 3.4 from the cache: sum of w_T / alpha_T in tet order.
+  auto objective = [&] {
+    Sum s;
+    for (int32_t t = 0; t < nt; ++t) {
+      if (!(qa[t] > 0)) return kInf;
+      s.add(tet_weight(m, t, C) / qa[t]);
+    }
+    return s.value();
+  };
+  auto worst_of_cache = [&] { return nt ? *std::min_element(qa.begin(), qa.end()) : 0.0; };
+  st.objective_before = objective();
+  st.worst_alpha_before = worst_of_cache();
 
+  // Per-vertex state, allocated once per pass (flat arrays, no per-vertex
+  // containers): visit stamps and colours of the current sweep.
   std::vector<uint32_t> stamp(nv, 0);
   uint32_t epoch = 0;
-  std::vector<int32_t> active, moved;
+  std::vector<int32_t> colour(nv, -1);
+  std::vector<uint64_t> colour_seen;  // per colour: stamp of the last vertex that saw it
+  uint64_t seen_epoch = 0;
+  std::vector<int32_t> active, moved, order, class_start, cursor;
+  std::vector<uint8_t> result, reactivate;
   std::mt19937_64 rng(o.seed);
-  const bool maxmin = o.optimizer == Optimizer::MaxMin;
 
   auto is_free = [&](int32_t u) { return !m.vert_constrained[u] && m.star_begin(u) != m.star_end(u); };
   auto touches_poor = [&](int32_t u) {
     for (const int32_t* it = m.star_begin(u); it != m.star_end(u); ++it)
       if (qa[*it] < o.threshold) return true;
     return false;
+  };
+
+  // One vertex of the current colour class; writes only its own slots of
+  // result / reactivate, its own coordinates and the cache entries of its own
+  // star (disjoint from every other vertex of the class).
+  auto visit = [&](int64_t i) {
+    const int32_t v = order[i];
+    Scratch& s = thread_scratch();
+    double before = 0, after = 0;
+    const SmoothResult r = solve_vertex(m, v, o, s, before, after);
+    result[i] = static_cast<uint8_t>(r);
+    reactivate[i] = 0;
+    if (r != SmoothResult::Applied) return;
+    const int32_t* b = m.star_begin(v);
+    const int n = static_cast<int>(m.star_end(v) - b);
+    for (int k = 0; k < n; ++k) qa[b[k]] = s.star_alpha[k];
+    if (o.reactivate_gain > 0) {
+      const bool maxmin = o.optimizer == Optimizer::MaxMin;
+      const double gain = maxmin ? after - before : before - after;
+      reactivate[i] = gain >= o.reactivate_gain * std::fabs(maxmin ? before : after);
+    } else {
+      reactivate[i] = 1;
+    }
   };
 
   for (int phase = 0; phase < (o.all_vertices ? 2 : 1); ++phase) {
@@ -588,41 +763,67 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log) {
     for (int sweep = 0; sweep < o.iterations && !active.empty(); ++sweep) {
       // Fisher-Yates with the engine's raw output (portable, unlike std::shuffle).
       for (size_t i = active.size(); i > 1; --i) std::swap(active[i - 1], active[rng() % i]);
-      moved.clear();
-      const int64_t applied_before = st.moves_applied;
+      // Greedy colouring in the shuffled order: each vertex takes the
+      // smallest colour no already-coloured active neighbour has.  Vertices
+      // of one colour share no tet, so their stars share no free vertex and
+      // their solves are independent: a class can run in any order or in
+      // parallel with the same result.
+      int ncolours = 0;
       for (const int32_t v : active) {
-        // The vertex's own measure before and after, for reactivate_gain.
-        auto own = [&] {
-          double w = kInf;
-          if (!maxmin) return vertex_objective(m, v, C);
-          for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) w = std::min(w, qa[*it]);
-          return w;
-        };
-        const double before = o.reactivate_gain > 0 ? own() : 0.0;
-        const SmoothResult r = smooth_vertex(m, v, o);
-        st.moves_tried++;
-        if (r == SmoothResult::Applied) {
-          st.moves_applied++;
-          for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) qa[*it] = tet_alpha(m, *it);
-          if (o.reactivate_gain > 0) {
-            const double after = own();
-            const double gain = maxmin ? after - before : before - after;
-            if (!(gain >= o.reactivate_gain * std::fabs(maxmin ? before : after))) continue;
-          }
-          moved.push_back(v);
-        } else if (r == SmoothResult::NotImproved) {
-          st.not_improved++;
-        } else if (r == SmoothResult::Inverted) {
-          st.rejected_inverted++;
+        ++seen_epoch;
+        for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+          const int32_t* tv = m.tet(*it);
+          for (int k = 0; k < 4; ++k)
+            if (colour[tv[k]] >= 0) colour_seen[colour[tv[k]]] = seen_epoch;
+        }
+        int c = 0;
+        while (c < ncolours && colour_seen[c] == seen_epoch) ++c;
+        if (c == ncolours) {
+          ++ncolours;
+          if (static_cast<int>(colour_seen.size()) < ncolours) colour_seen.push_back(0);
+        }
+        colour[v] = c;
+      }
+      // Classes in colour order, each in the shuffled order (counting sort).
+      class_start.assign(ncolours + 1, 0);
+      for (const int32_t v : active) ++class_start[colour[v] + 1];
+      for (int c = 0; c < ncolours; ++c) class_start[c + 1] += class_start[c];
+      order.resize(active.size());
+      cursor.assign(class_start.begin(), class_start.end() - 1);
+      for (const int32_t v : active) order[cursor[colour[v]]++] = v;
+      for (const int32_t v : active) colour[v] = -1;
+      result.assign(order.size(), 0);
+      reactivate.assign(order.size(), 0);
+
+      for (int c = 0; c < ncolours; ++c) {
+        const int64_t b = class_start[c], n = class_start[c + 1] - b;
+        auto visit_class = [&](int64_t i) { visit(b + i); };
+        if (threads > 1 && n >= 64) get_pool().run(n, 8, visit_class);
+        else for (int64_t i = 0; i < n; ++i) visit_class(i);
+      }
+
+      moved.clear();
+      int64_t applied_now = 0;
+      for (size_t i = 0; i < order.size(); ++i) {
+        st.moves_tried += result[i] != static_cast<uint8_t>(SmoothResult::BoundaryLocked);
+        switch (static_cast<SmoothResult>(result[i])) {
+          case SmoothResult::Applied:
+            ++applied_now;
+            if (reactivate[i]) moved.push_back(order[i]);
+            break;
+          case SmoothResult::NotImproved: st.not_improved++; break;
+          case SmoothResult::Inverted: st.rejected_inverted++; break;
+          case SmoothResult::BoundaryLocked: break;
         }
       }
+      st.moves_applied += applied_now;
       st.sweeps++;
       if (log) {
-        char buf[200];
-        std::snprintf(buf, sizeof buf, "smooth phase %d sweep %d: %zu active, %lld moved (%zu re-activating), worst alpha %.6g",
-                      phase + 1, sweep + 1, active.size(),
-                      static_cast<long long>(st.moves_applied - applied_before), moved.size(),
-                      *std::min_element(qa.begin(), qa.end()));
+        char buf[220];
+        std::snprintf(buf, sizeof buf,
+                      "smooth phase %d sweep %d: %zu active in %d colours, %lld moved (%zu re-activating), worst alpha %.6g",
+                      phase + 1, sweep + 1, active.size(), ncolours, static_cast<long long>(applied_now),
+                      moved.size(), worst_of_cache());
         log(LogLevel::Progress, buf);
       }
       if (moved.empty()) break;  // nothing (worth re-visiting) changed
@@ -641,8 +842,8 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log) {
       std::sort(active.begin(), active.end());
     }
   }
-  st.worst_alpha_after = nt ? *std::min_element(qa.begin(), qa.end()) : 0.0;
-  st.objective_after = mesh_objective(m, C);
+  st.worst_alpha_after = worst_of_cache();
+  st.objective_after = objective();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return st;
 }

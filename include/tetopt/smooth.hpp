@@ -60,22 +60,40 @@
 //   with all_vertices) does the same over every free vertex without the alpha
 //   filter, with its own budget of `iterations` sweeps.  Output is a pure
 //   function of the input mesh and options: the same seed gives byte-identical
-//   coordinates.
+//   coordinates, for every thread count.
+//
+// Parallel sweeps (Jones & Plassmann 1993, "A parallel graph coloring
+//   heuristic"; Freitag, Jones & Plassmann 1999, "A parallel algorithm for
+//   mesh smoothing").  Each sweep colours the active vertices greedily in
+//   the shuffled order (smallest colour not taken by an already coloured
+//   active vertex sharing a tet), then runs the colour classes one after
+//   another, each class in its shuffled order.  Two vertices of one class
+//   share no tet, so neither solve reads what the other writes: a class may
+//   run on any number of threads (SmoothOptions::threads) and the result is
+//   the same bytes as with one.  (It is a different Gauss-Seidel order from
+//   visiting the shuffled list directly, which is why the colouring is used
+//   for one thread too.)
 //
 // Cost
 //   One objective evaluation is O(|S(v)|) with no allocation: the star is
 //   gathered once per vertex solve into thread-local scratch buffers that only
 //   grow (coordinates relative to the vertex, the constant opposite-face
-//   normal and longest fixed edge precomputed).  smooth_pass is O(nt) for the
-//   initial quality scan plus O(sum of star sizes of active vertices) per
-//   sweep.  Single-threaded; smooth_vertex may be called concurrently from
-//   several threads on vertices whose stars share no free vertex.
+//   normal and longest fixed edge precomputed).  smooth_pass keeps a
+//   per-tet alpha cache: one O(nt) alpha evaluation to fill it (none when the
+//   caller hands in a current cache), then only the stars of committed moves
+//   are re-evaluated (the commit check's own alpha values are stored, bit for
+//   bit what tet_alpha() gives).  Beyond that a pass costs a few O(nt) scans
+//   of the cache (poor-tet filter, worst alpha, the objective sum) plus
+//   O(sum of star sizes of active vertices) per sweep, spread over the
+//   threads.  smooth_vertex may be called concurrently from several threads
+//   on vertices that share no tet.
 //
 // Preconditions: build_topology(m) succeeded and the mesh has not changed
 // connectivity since.  Tets should be positive; a vertex whose star contains
 // a flat or inverted tet (f infinite) is left where it is (Inverted).
 #pragma once
 #include <cstdint>
+#include <vector>
 
 #include "tetopt/mesh.hpp"
 #include "tetopt/status.hpp"
@@ -115,6 +133,10 @@ struct SmoothOptions {
   /// worst alpha) by at least this fraction; smaller moves do not start a
   /// new wave of work.  0 re-activates after every move.
   double reactivate_gain = 1e-3;
+  /// Worker threads for the colour classes and the initial alpha scan;
+  /// 0 = std::thread::hardware_concurrency().  The result does not depend on
+  /// it (byte-identical coordinates for every value).
+  int threads = 1;
 };
 
 /// Counters and measurements of one smooth_pass.
@@ -126,7 +148,9 @@ struct SmoothStats {
   int64_t initial_active = 0;   ///< size of the first active set (phase 1)
   int sweeps = 0;               ///< sweeps run, both phases together
   double seconds = 0;           ///< wall time of the whole pass
-  double objective_before = 0;  ///< mesh_objective(m, weight) before and after
+  /// f of eq. 3.4 before and after: sum over tets of w_T / alpha_T from the
+  /// pass's alpha cache, in tet order (mesh_objective up to rounding).
+  double objective_before = 0;
   double objective_after = 0;
   double worst_alpha_before = 0;  ///< min over tets of tetopt::alpha
   double worst_alpha_after = 0;
@@ -157,5 +181,14 @@ SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o);
 /// Reports one Progress line per sweep through `log` when given.  Requires
 /// m's topology; leaves it valid.
 SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log = {});
+
+/// The same pass with a per-tet alpha cache owned by the caller, so that
+/// consecutive passes (and the caller's own worst-alpha checks) need no O(nt)
+/// quality evaluation.  When alpha_cache->size() == m.nt() its entries must
+/// equal tet_alpha(m, t) (they are trusted); otherwise it is filled.  On
+/// return it holds tet_alpha(m, t) for every tet, bit for bit.  Invalidate it
+/// (clear()) after any change of connectivity or coordinates made elsewhere.
+/// nullptr behaves like the overload above.
+SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, std::vector<double>* alpha_cache);
 
 }  // namespace tetopt
