@@ -68,6 +68,13 @@ Status check_arrays(const TetMesh& m, const std::string& name) {
   if (Status s = check_list(m.edges, 2, "edge"); !s) return s;
   if (Status s = check_list(m.required_vertices, 1, "required vertex"); !s) return s;
   if (Status s = check_list(m.corners, 1, "corner"); !s) return s;
+  if (!m.tet_entity.empty() && m.tet_entity.size() != static_cast<size_t>(nt))
+    return Status::error(ErrorCode::InvalidMesh, name + ": tet_entity size differs from the tet count");
+  if (!m.tri_entity.empty() && m.tri_entity.size() != m.tris.size() / 3)
+    return Status::error(ErrorCode::InvalidMesh, name + ": tri_entity size differs from the triangle count");
+  for (const auto& f : m.point_fields)
+    if (f.components < 1 || f.values.size() != static_cast<size_t>(nv) * static_cast<size_t>(f.components))
+      return Status::error(ErrorCode::InvalidMesh, name + ": point field '" + f.name + "' has the wrong size");
   if (m.tri_ref.size() != m.tris.size() / 3 || m.edge_ref.size() != m.edges.size() / 2)
     return Status::error(ErrorCode::InvalidMesh, name + ": ref arrays differ from entity counts");
   for (int32_t i : m.required_tris)

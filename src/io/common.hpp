@@ -10,10 +10,12 @@
 namespace tetopt::detail {
 
 /// Whether a writer of format `target` must swap kFlipA/kFlipB: to restore
-/// the source file's own convention when writing the same format, otherwise
+/// the source file's own convention when writing the same format family
+/// (.mesh/.meshb, .vtk/.vtu), otherwise
 /// to use the target's native convention (TetGen: negative right-hand det).
+inline Format format_family(Format f) { return f == Format::MeditBinary ? Format::Medit : (f == Format::Vtu ? Format::Vtk : f); }
 inline bool write_flipped(const TetMesh& m, Format target) {
-  if (static_cast<int>(target) == m.source_format) return m.flipped_on_read;
+  if (format_family(target) == format_family(static_cast<Format>(m.source_format))) return m.flipped_on_read;
   return target == Format::TetGen;
 }
 

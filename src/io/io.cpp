@@ -1,5 +1,7 @@
 // Format dispatch, whole-file reading and atomic writing (see io.hpp).
+#include <cctype>
 #include <cstdio>
+#include <sys/stat.h>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -36,6 +38,9 @@ Format format_from_path(const std::string& path) {
 }
 
 Status read_file_bytes(const std::string& path, std::string& out) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return Status::error(ErrorCode::Io, path + ": no such file");
+  if (!S_ISREG(st.st_mode)) return Status::error(ErrorCode::Io, path + ": not a regular file");
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::error(ErrorCode::Io, path + ": cannot open for reading");
   in.seekg(0, std::ios::end);
@@ -118,13 +123,12 @@ Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions&
                            path + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
     case Format::TetGen: {
       std::string ele, face;
-      if (s = format_tetgen(m, out, ele, face); !s) return s;
+      if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, path + ": " + s.message);
       const std::string base = stem(path);
       if (s = write_file_atomic(base + ".node", out); !s) return s;
       if (s = write_file_atomic(base + ".ele", ele); !s) return s;
-      if (!face.empty())
-        if (s = write_file_atomic(base + ".face", face); !s) return s;
-      return Status::success();
+      // Always written (possibly empty) so a stale .face never pairs with new .node/.ele.
+      return write_file_atomic(base + ".face", face);
     }
     case Format::Medit: s = format_medit(m, out); break;
     case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;
