@@ -4,6 +4,8 @@
 #include <fstream>
 
 #include "cli.hpp"
+#include "tetopt/diagnose.hpp"
+#include "tetopt/html_report.hpp"
 #include "tetopt/improve.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/report.hpp"
@@ -40,17 +42,29 @@ static const char* kImproveHelp =
     "  --threads K          worker threads (default 1)\n"
     "  --report FILE.json   write a machine-readable report: before/after statistics,\n"
     "                       operation counts, time per phase, the invariant check\n"
-    "  --field OUT.vtu      write per-tet alpha, dihedral range, kind, region of OUT\n"
+    "  --field OUT.vtu      write per-tet fields of OUT for ParaView: alpha, alpha_before\n"
+    "                       (alpha of the same four vertices in IN; NaN for new tets),\n"
+    "                       dihedral_min/max, kind, region, diagnosis (0 good, 1 locked\n"
+    "                       by its boundary triangle, 2 locked by constrained\n"
+    "                       neighbours, 3 improvable) and alpha_bound\n"
+    "  --html FILE.html     write a self-contained HTML report: before/after histograms\n"
+    "                       of alpha and dihedral angles, statistics, time per phase,\n"
+    "                       operation counts, diagnosis, the boundary verdict\n"
     "  --msh-version V      22 or 41 for .msh output    --binary  binary .msh/.vtk\n"
     "  --no-check           skip the final invariant proof (not recommended)\n"
     "  -q, --quiet          print nothing but errors    -v, --verbose  more detail\n"
+    "\n"
+    "After the run every tet still below the threshold is diagnosed: locked by its\n"
+    "boundary triangle (no apex over that constrained triangle reaches the threshold),\n"
+    "locked by its constrained neighbours (all four vertices constrained and no flip\n"
+    "found), or improvable (not reached); --report and --html list them.\n"
     "\n"
     "examples:\n"
     "  tetopt improve impeller.mesh -o impeller_opt.mesh\n"
     "  tetopt improve pump.msh -o pump_opt.msh --mode combined --weight 0.8 --report r.json\n";
 
 int cmd_improve(const std::vector<std::string>& args) {
-  std::string in, out, report_path, field;
+  std::string in, out, report_path, field, html;
   ImproveOptions opt;
   WriteOptions wo;
   bool quiet = false, verbose = false;
@@ -71,6 +85,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     else if (a == "-o" || a == "--output") { if (!value(out)) return kExitUsage; }
     else if (a == "--report") { if (!value(report_path)) return kExitUsage; }
     else if (a == "--field") { if (!value(field)) return kExitUsage; }
+    else if (a == "--html") { if (!value(html)) return kExitUsage; }
     else if (a == "-q" || a == "--quiet") quiet = true;
     else if (a == "-v" || a == "--verbose") verbose = true;
     else if (a == "--binary") wo.binary = true;
@@ -138,6 +153,11 @@ int cmd_improve(const std::vector<std::string>& args) {
       std::fprintf(stderr, "%s\n", msg.c_str());
     }
   };
+  // What the report and the field file need from the input mesh.
+  TetValueMap alpha_before;
+  if (!field.empty()) alpha_before = TetValueMap(m, compute_fields(m).alpha);
+  QualityHistograms hist_before;
+  if (!html.empty()) hist_before = quality_histograms(m);
   ImproveReport rep;
   Status s = improve(m, opt, rep, log, &g_interrupted);
   if (tty) std::fputs("\033[K", stderr);
@@ -156,14 +176,40 @@ int cmd_improve(const std::vector<std::string>& args) {
   s = write_mesh(out, m, wo);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const bool want_diag = !quiet || !field.empty() || !report_path.empty() || !html.empty();
+  Diagnosis diag;
+  if (want_diag) diag = diagnose(m, DiagnoseOptions{opt.threshold, true});
   if (!field.empty()) {
-    s = write_cell_fields_vtu(field, m, quality_cell_fields(m));
+    std::vector<CellField> fields = quality_cell_fields(m);
+    fields.insert(fields.begin() + 1, CellField{"alpha_before", alpha_before.lookup(m), false});
+    for (CellField& c : diagnosis_cell_fields(diag, m.nt())) fields.push_back(std::move(c));
+    s = write_cell_fields_vtu(field, m, fields);
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
   }
   if (!report_path.empty()) {
     std::string js = report_to_json(rep, opt, in, out);
-    js.insert(js.size() - 2, ",\n  \"seconds_end_to_end\": " + std::to_string(total));
+    std::string dj = diagnosis_to_json(diag, 1000, 2);
+    for (size_t p = dj.find('\n'); p != std::string::npos; p = dj.find('\n', p + 3)) dj.replace(p, 1, "\n  ");
+    const size_t close = js.rfind('}');
+    js.insert(close > 0 && js[close - 1] == '\n' ? close - 1 : close, ",\n  \"seconds_end_to_end\": " + std::to_string(total) + ",\n  \"diagnosis\": " + dj);
     s = write_file_atomic(report_path, js);
+    if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
+  }
+  if (!html.empty()) {
+    HtmlReportInput hin;
+    hin.title = "tetopt improve: " + in;
+    hin.input = in;
+    hin.output = out;
+    hin.before = rep.before;
+    hin.before_hist = std::move(hist_before);
+    hin.has_after = true;
+    hin.after = rep.after;
+    hin.after_hist = quality_histograms(m);
+    hin.run = &rep;
+    hin.options = &opt;
+    hin.seconds_end_to_end = total;
+    hin.diagnosis = &diag;
+    s = write_html_report(html, hin);
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
   }
   if (!quiet) {
@@ -183,6 +229,8 @@ int cmd_improve(const std::vector<std::string>& args) {
                                                               "region volumes kept)"
                                                             : "NO")
                                        : "not checked (--no-check)");
+    std::printf("%s", format_diagnosis(diag, verbose ? 20 : 3).c_str());
+    if (!html.empty()) std::printf("  wrote HTML report to %s\n", html.c_str());
   }
   return kExitOk;
 }

@@ -8,7 +8,9 @@
 #include <fstream>
 
 #include "cli.hpp"
+#include "tetopt/diagnose.hpp"
 #include "tetopt/generate.hpp"
+#include "tetopt/html_report.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/quality.hpp"
 #include "tetopt/report.hpp"
@@ -81,37 +83,57 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet) {
 }
 
 static const char* kQualityHelp =
-    "usage: tetopt quality IN [--json] [--field OUT.vtu] [--no-histogram] [-q]\n"
+    "usage: tetopt quality IN [--json] [--field OUT.vtu] [--html REPORT.html] [--threshold G]\n"
+    "                         [--no-histogram] [-q]\n"
     "\n"
     "Prints the quality of a tetrahedral mesh:\n"
     "  alpha = 6*sqrt(6)*V / (sum of face areas * longest edge)  (1 regular, 0 flat, <0 inverted)\n"
     "  worst and mean alpha overall, over boundary elements (tets with at least one\n"
     "  constrained vertex) and interior tets, the dihedral range, counts of poor tets,\n"
     "  and text histograms of alpha and of the dihedral angles.\n"
+    "It also says why each tet with alpha < G is bad: locked by its boundary\n"
+    "triangle (no apex over that constrained triangle reaches G, so no method that\n"
+    "keeps the boundary can fix it), locked by its constrained neighbours (all four\n"
+    "vertices constrained: only flips can help), or improvable; and the bound on\n"
+    "worst alpha and the dihedral range that any mesh with this boundary obeys.\n"
     "\n"
     "options:\n"
     "  --json            print the statistics as one JSON object instead (keys match\n"
-    "                    ../shared/tools/meshcheck.py stats --json where they overlap)\n"
+    "                    ../shared/tools/meshcheck.py stats --json where they overlap,\n"
+    "                    plus \"diagnosis\")\n"
     "  --field OUT.vtu   also write per-tet alpha, dihedral_min, dihedral_max, kind\n"
-    "                    (number of constrained vertices, 4 = all-boundary) and region\n"
-    "                    as cell data, for ParaView\n"
+    "                    (number of constrained vertices, 4 = all-boundary), region,\n"
+    "                    diagnosis (0 good, 1 locked by triangle, 2 locked by\n"
+    "                    neighbours, 3 improvable) and alpha_bound as cell data, for ParaView\n"
+    "  --html FILE       write a self-contained HTML report (histograms, tables,\n"
+    "                    diagnosis with the worst tets)\n"
+    "  --threshold G     alpha below which a tet is diagnosed (default 0.3)\n"
     "  --no-histogram    omit the histograms\n"
     "  -q                no notes or progress on stderr\n"
     "\n"
-    "example:  tetopt quality impeller.mesh --field impeller_quality.vtu\n";
+    "example:  tetopt quality impeller.mesh --field impeller_quality.vtu --html impeller.html\n";
 
 int cmd_quality(const std::vector<std::string>& args) {
-  std::string in, field;
+  std::string in, field, html;
   bool json = false, hist = true, quiet = false;
+  DiagnoseOptions dopt;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "-h" || a == "--help") { std::fputs(kQualityHelp, stdout); return kExitOk; }
     if (a == "--json") json = true;
     else if (a == "--no-histogram") hist = false;
     else if (a == "-q" || a == "--quiet") quiet = true;
-    else if (a == "--field") {
-      if (i + 1 >= args.size()) { std::fputs("tetopt quality: --field needs a file name\n", stderr); return kExitUsage; }
-      field = args[++i];
+    else if (a == "--field" || a == "--html") {
+      if (i + 1 >= args.size()) {
+        std::fprintf(stderr, "tetopt quality: %s needs a file name\n", a.c_str());
+        return kExitUsage;
+      }
+      (a == "--field" ? field : html) = args[++i];
+    } else if (a == "--threshold") {
+      double d = 0;
+      if (i + 1 >= args.size() || !parse_double(a, args[++i], d)) return kExitUsage;
+      if (d <= 0 || d > 1) { std::fputs("tetopt quality: --threshold must be in (0, 1]\n", stderr); return kExitUsage; }
+      dopt.threshold = d;
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "tetopt quality: unknown option '%s'\n\n%s", a.c_str(), kQualityHelp);
       return kExitUsage;
@@ -122,16 +144,39 @@ int cmd_quality(const std::vector<std::string>& args) {
   TetMesh m;
   if (!load_mesh(in, m, quiet || json)) return kExitInput;
   const QualityStats s = compute_stats(m);
+  const Diagnosis diag = diagnose(m, dopt);
   if (json) {
-    std::printf("%s\n", stats_to_json(s).c_str());
+    std::string js = stats_to_json(s);
+    const size_t close = js.rfind('}');
+    std::string dj = diagnosis_to_json(diag, 100, 2);
+    for (size_t p = dj.find('\n'); p != std::string::npos; p = dj.find('\n', p + 3)) dj.replace(p, 1, "\n  ");
+    js.insert(close, ",\n  \"diagnosis\": " + dj + "\n");
+    // stats_to_json ends its last value with a newline; drop the blank line
+    const size_t dup = js.find("\n,\n  \"diagnosis\"");
+    if (dup != std::string::npos) js.erase(dup, 1);
+    std::printf("%s\n", js.c_str());
   } else {
     std::printf("%s\n%s", in.c_str(), format_stats_table(s).c_str());
     if (hist) std::printf("%s", format_histograms(s).c_str());
+    std::printf("%s", format_diagnosis(diag).c_str());
   }
   if (!field.empty()) {
-    Status st = write_cell_fields_vtu(field, m, quality_cell_fields(m));
+    std::vector<CellField> fields = quality_cell_fields(m);
+    for (CellField& c : diagnosis_cell_fields(diag, m.nt())) fields.push_back(std::move(c));
+    Status st = write_cell_fields_vtu(field, m, fields);
     if (!st) { std::fprintf(stderr, "tetopt: %s\n", st.message.c_str()); return kExitOutput; }
     if (!quiet && !json) std::printf("wrote per-tet fields to %s\n", field.c_str());
+  }
+  if (!html.empty()) {
+    HtmlReportInput hin;
+    hin.title = "tetopt quality: " + in;
+    hin.input = in;
+    hin.before = s;
+    hin.before_hist = quality_histograms(m);
+    hin.diagnosis = &diag;
+    Status st = write_html_report(html, hin);
+    if (!st) { std::fprintf(stderr, "tetopt: %s\n", st.message.c_str()); return kExitOutput; }
+    if (!quiet && !json) std::printf("wrote HTML report to %s\n", html.c_str());
   }
   return kExitOk;
 }

@@ -1,0 +1,176 @@
+// tetopt/diagnose.hpp — why is this tet still bad?
+//
+// A boundary-preserving method keeps every constrained triangle (boundary,
+// region interface, listed triangle), and each such triangle is a face of at
+// least one tet on every side that has tets.  Whatever the method does, the
+// tet standing on triangle T has some apex D, so its quality is at most
+//
+//     best_alpha(T) = max over apex positions D (off T's plane) of alpha(T, D)
+//
+// and the mesh's worst alpha can never rise above min_T best_alpha(T), the
+// *mesh-wide bound*.  The same holds for the smallest dihedral angle (bounded
+// from above by the best min-dihedral) and the largest (bounded from below).
+//
+// The best apex is searched in T's frame: T scaled so its longest edge is 1,
+// a at the origin, b on the x axis, c in the xy plane, apex (x, y, z) with
+// z > 0 (alpha(T, x, y, -z) = -alpha(T, x, y, z), so one side suffices; an
+// interface triangle has the same bound on both sides).  The apex is kept within
+// 4 longest edges of a along each axis: farther apexes never matter for
+// alpha, and the dihedral objectives, whose supremum may lie at infinity
+// (a right triangle's largest dihedral tends to 90 degrees as the apex
+// rises), are then bounds over that box.  The objective is
+// smooth except where the longest edge, or the extreme dihedral angle,
+// switches, so the search is: candidate apexes (above the centroid, the
+// incentre and the circumcentre at the regular tet's height ratio), a coarse
+// 9x9x6 grid over the triangle's neighbourhood, then Nelder–Mead (Nelder and
+// Mead 1965) from the best few, each restarted once (restarts cure most
+// stalls at the kinks), and a final compass search (Kolda, Lewis and Torczon
+// 2003).  The result is an *achieved* value (some apex really gives it), so it
+// can only under-estimate the true maximum; the search is multi-start to make
+// that gap negligible (tests check it against dense random sampling).
+//
+// Cost.  One triangle costs about 2000 evaluations (~0.1 ms for alpha).  The
+// mesh-wide bound first evaluates every triangle at the candidate apexes only
+// (an achieved value, hence a lower estimate of each triangle's best), sorts,
+// and refines triangles in ascending order while their cheap value is below
+// the smallest refined value: a triangle whose achieved value already exceeds
+// the current minimum cannot hold the minimum (a short compass polish of the
+// cheap value is tried before the full search; values within 1e-4 in alpha,
+// 0.01 degree in angle, of the current minimum are not refined, so the bound
+// is exact to that tolerance).  The dihedral bounds cluster (a triangle with
+// one small angle allows a min dihedral near 60 degrees), so for them only
+// the 64 triangles lowest by cheap value are searched: estimates, like those
+// of ../shared/tools/bound.py, which polishes its 25 lowest.  The per-tet classification
+// refines lazily, only the constrained faces of tets below the threshold whose
+// cheap value is below the threshold.
+//
+// Classification of a tet t with alpha(t) < gamma (the threshold):
+//   LockedByTriangle    t has a constrained face T with best_alpha(T) < gamma:
+//                       no method that keeps T can lift T's tet to gamma (it
+//                       may still be improved up to best_alpha(T)).
+//   LockedByNeighbours  not the above, and all four vertices of t are
+//                       constrained (kind 4): smoothing cannot move any of
+//                       them, only a topological change can help, and the
+//                       topology passes found none.
+//   Improvable          otherwise: a better mesh exists as far as these bounds
+//                       tell; the method did not reach it.
+// Tets with alpha >= gamma are Good.
+#pragma once
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tetopt/mesh.hpp"
+#include "tetopt/report.hpp"
+
+namespace tetopt {
+
+/// What a best-apex search maximises.
+enum class ApexObjective {
+  Alpha,        ///< alpha (eq. 3.1)
+  MinDihedral,  ///< the smallest of the six dihedral angles
+  MaxDihedral   ///< minus the largest dihedral angle (so: the largest is minimised)
+};
+
+/// Result of a best-apex search on one triangle.
+struct ApexResult {
+  double value = 0;      ///< alpha, or min dihedral (deg), or max dihedral (deg) at the apex
+  double apex[3] = {0, 0, 0};  ///< the apex in world coordinates, on the side of normal (b-a)x(c-a)
+};
+
+/// Best apex for triangle (a, b, c) (3 doubles each) under the objective.
+/// For MaxDihedral `value` is the smallest largest-dihedral found (degrees).
+/// A degenerate triangle (collinear or repeated points) gives alpha 0, min
+/// dihedral 0, max dihedral 180.
+ApexResult best_apex(const double* a, const double* b, const double* c, ApexObjective obj = ApexObjective::Alpha);
+
+/// The cheap estimate: the best objective value over a few closed-form apex
+/// candidates (achieved, hence <= best_apex for Alpha and MinDihedral, >= for
+/// MaxDihedral).
+double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj = ApexObjective::Alpha);
+
+/// Mesh-wide bound over all constrained triangles (each counted once).
+struct MeshBound {
+  int64_t triangles = 0;          ///< constrained triangles
+  double alpha = NAN;             ///< min over triangles of best alpha (NaN when none)
+  double dihedral_min = NAN;      ///< min over triangles of best min-dihedral (upper bound, deg; estimate)
+  double dihedral_max = NAN;      ///< max over triangles of best max-dihedral (lower bound, deg; estimate)
+  int32_t alpha_tet = -1, alpha_face = -1;  ///< a tet and local face holding the alpha bound
+  double alpha_location[3] = {NAN, NAN, NAN};  ///< centroid of that triangle
+  int64_t refined = 0;            ///< triangles searched in full (all objectives)
+  double seconds = 0;
+};
+
+/// Computes the mesh-wide bound.  Requires m's topology.
+MeshBound mesh_bound(const TetMesh& m);
+
+enum class TetClass : uint8_t { Good = 0, LockedByTriangle = 1, LockedByNeighbours = 2, Improvable = 3 };
+const char* tet_class_name(TetClass c);
+
+/// One tet below the threshold.
+struct PoorTet {
+  int32_t tet = -1;
+  TetClass cls = TetClass::Improvable;
+  double alpha = 0;
+  double dihedral_min = 0, dihedral_max = 0;
+  int kind = 0;                 ///< constrained vertices
+  int constrained_faces = 0;    ///< number of its faces that are constrained
+  /// min best_alpha over its constrained faces that were searched; NaN when
+  /// none was (no constrained face, or every one has an apex reaching gamma)
+  double best_alpha = NAN;
+  int32_t face = -1;            ///< local face giving best_alpha, -1 when none
+  double centroid[3] = {0, 0, 0};
+};
+
+struct Diagnosis {
+  double threshold = 0.3;
+  int64_t tets = 0;
+  int64_t count[4] = {0, 0, 0, 0};  ///< by TetClass
+  std::vector<PoorTet> poor;        ///< every tet below the threshold, worst alpha first
+  std::vector<uint8_t> tet_class;   ///< nt, TetClass per tet
+  MeshBound bound;                  ///< filled when DiagnoseOptions::mesh_bound
+  int64_t faces_searched = 0;
+  double seconds = 0;
+};
+
+struct DiagnoseOptions {
+  double threshold = 0.3;   ///< gamma
+  bool mesh_bound = true;   ///< also compute the mesh-wide bound
+};
+
+/// Classifies every tet of m (see the essay above).  Requires m's topology.
+Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt = {});
+
+/// Text summary: counts per class, the mesh-wide bound, and the `max_list`
+/// worst tets with their class (ids 1-based, as the CLI prints them).
+std::string format_diagnosis(const Diagnosis& d, size_t max_list = 5);
+
+/// JSON object: threshold, counts, bound, and the `max_list` worst poor tets
+/// (0 = all) with id (0-based), class, alpha, kind, best_alpha, centroid.
+std::string diagnosis_to_json(const Diagnosis& d, size_t max_list = 0, int indent = 2);
+
+/// Cell fields "diagnosis" (TetClass as an integer) and "alpha_bound" (the
+/// searched best alpha of the tet's constrained faces, NaN elsewhere).
+std::vector<CellField> diagnosis_cell_fields(const Diagnosis& d, int32_t nt);
+
+/// Per-tet values of a mesh kept by their sorted vertex quadruple, to carry
+/// values across an improvement that keeps vertex ids (flips and smoothing
+/// do): tets of the new mesh with the same four vertices get the old value.
+class TetValueMap {
+ public:
+  TetValueMap() = default;
+  TetValueMap(const TetMesh& m, const std::vector<double>& values);
+  /// values for the tets of `m` (NaN for tets whose vertex set is new).
+  std::vector<double> lookup(const TetMesh& m) const;
+  int64_t matched(const TetMesh& m) const;
+
+ private:
+  struct Entry {
+    int32_t v[4];
+    double value;
+  };
+  std::vector<Entry> entries_;  ///< sorted by v
+};
+
+}  // namespace tetopt

@@ -1,0 +1,71 @@
+// tetopt/html_report.hpp — one self-contained HTML page about a mesh or a run.
+//
+// The page needs nothing but itself: inline CSS, inline SVG charts, a few
+// lines of inline script (a log/linear toggle for the histograms; the page
+// reads fully without it), system fonts only, no network.  It shows what the
+// paper's Figures 5 and 8 show — the distribution of alpha and of the
+// dihedral angles, before and after — plus the statistics in the paper's
+// columns (Tables 1–3), time per phase, operation counts, the diagnosis of
+// every tet left below the threshold (diagnose.hpp) with the worst ones
+// listed, and the boundary-unchanged verdict.
+//
+// Structure the tests rely on: each histogram is an <svg class="hist"> with
+// id "hist-alpha" or "hist-dihedral" holding one <rect class="bar ..."> per
+// bin and series (data-count = the count); the script sets
+// data-report-ready="1" on <html> when it has run.
+//
+// Pure formatting: nothing here modifies a mesh or prints.
+#pragma once
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tetopt/diagnose.hpp"
+#include "tetopt/improve.hpp"
+#include "tetopt/mesh.hpp"
+#include "tetopt/quality.hpp"
+#include "tetopt/status.hpp"
+
+namespace tetopt {
+
+/// Counts of values in equal bins over [lo, hi]; values outside go to the
+/// first or last bin.
+struct Histogram {
+  double lo = 0, hi = 1;
+  std::vector<int64_t> counts;
+};
+
+/// alpha of every tet and the six dihedral angles of every tet, binned.
+struct QualityHistograms {
+  Histogram alpha;     ///< over [0, 1]; alpha <= 0 goes to the first bin
+  Histogram dihedral;  ///< over [0, 180] degrees, 6 angles per tet
+};
+
+/// Bins the tets of m: `alpha_bins` over [0,1], `dihedral_bins` over [0,180].
+QualityHistograms quality_histograms(const TetMesh& m, int alpha_bins = 20, int dihedral_bins = 36);
+
+/// What the page shows.  Pointers may be null: the matching section then
+/// says "not applicable" (e.g. `tetopt quality` has no run and no "after").
+struct HtmlReportInput {
+  std::string title = "tetopt report";
+  std::string input, output;        ///< file names as given
+  QualityStats before;
+  QualityHistograms before_hist;
+  bool has_after = false;
+  QualityStats after;
+  QualityHistograms after_hist;
+  const ImproveReport* run = nullptr;
+  const ImproveOptions* options = nullptr;
+  double seconds_end_to_end = NAN;  ///< reading + improving + writing (NaN: not shown)
+  const Diagnosis* diagnosis = nullptr;
+  size_t max_tets_listed = 50;      ///< rows of the worst-tets table
+};
+
+/// The page as one string (UTF-8).
+std::string html_report(const HtmlReportInput& in);
+
+/// Writes html_report(in) to path atomically.
+Status write_html_report(const std::string& path, const HtmlReportInput& in);
+
+}  // namespace tetopt

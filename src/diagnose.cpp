@@ -1,0 +1,617 @@
+// Best-apex bounds and the classification of tets left below the threshold
+// (see diagnose.hpp for the definitions and the search).
+#include "tetopt/diagnose.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <unordered_map>
+
+#include "tetopt/conventions.hpp"
+#include "tetopt/quality.hpp"
+
+namespace tetopt {
+
+namespace {
+
+using Vec3 = std::array<double, 3>;
+
+// The triangle in its own frame: a = 0, b on +x, c in the upper half plane,
+// scaled so the longest edge is 1.  `to_world` maps a local apex back.
+struct Frame {
+  bool degenerate = true;
+  double bx = 0, cx = 0, cy = 0;  // local b = (bx,0,0), c = (cx,cy,0)
+  Vec3 origin{}, e1{}, e2{}, n{};
+  double scale = 0;
+
+  Frame(const double* a0, const double* b0, const double* c0) {
+    // Rotate the labels cyclically (keeps the orientation) so that the
+    // longest edge is a-b: then bx = 1 and similar triangles share a frame.
+    const double* a = a0; const double* b = b0; const double* c = c0;
+    {
+      auto d2 = [](const double* p, const double* q) {
+        return (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]);
+      };
+      const double ab = d2(a0, b0), bc = d2(b0, c0), ca = d2(c0, a0);
+      if (bc > ab && bc >= ca) { a = b0; b = c0; c = a0; }
+      else if (ca > ab && ca > bc) { a = c0; b = a0; c = b0; }
+    }
+    Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    Vec3 w{c[0] - b[0], c[1] - b[1], c[2] - b[2]};
+    auto len = [](const Vec3& x) { return std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]); };
+    const double lu = len(u), lv = len(v), lw = len(w);
+    scale = std::max({lu, lv, lw});
+    Vec3 nn{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    const double ln = len(nn);
+    if (!(scale > 0) || !(lu > 0) || !(ln > 1e-14 * scale * scale) || !std::isfinite(ln)) return;
+    origin = {a[0], a[1], a[2]};
+    for (int k = 0; k < 3; ++k) { e1[k] = u[k] / lu; n[k] = nn[k] / ln; }
+    e2 = {n[1] * e1[2] - n[2] * e1[1], n[2] * e1[0] - n[0] * e1[2], n[0] * e1[1] - n[1] * e1[0]};
+    bx = lu / scale;
+    cx = (v[0] * e1[0] + v[1] * e1[1] + v[2] * e1[2]) / scale;
+    cy = (v[0] * e2[0] + v[1] * e2[1] + v[2] * e2[2]) / scale;
+    degenerate = !(cy > 0);
+  }
+  Vec3 to_world(const Vec3& p) const {
+    Vec3 r;
+    const double z = std::fabs(p[2]);
+    for (int k = 0; k < 3; ++k) r[k] = origin[k] + scale * (p[0] * e1[k] + p[1] * e2[k] + z * n[k]);
+    return r;
+  }
+};
+
+// Key of a triangle's shape up to similarity and reflection (the best-apex
+// values depend on nothing else), or false when degenerate.
+bool shape_key(const Frame& f, std::pair<int64_t, int64_t>& key) {
+  if (f.degenerate) return false;
+  const double x = std::min(f.cx, f.bx - f.cx);
+  key = {std::llround(x * 1e10), std::llround(f.cy * 1e10)};
+  return true;
+}
+
+struct PairHash {
+  size_t operator()(const std::pair<int64_t, int64_t>& p) const {
+    return std::hash<int64_t>()(p.first) * 1000003u ^ std::hash<int64_t>()(p.second);
+  }
+};
+
+// The objective to maximise at local apex p (z folded to the positive side).
+struct Objective {
+  const Frame& f;
+  ApexObjective obj;
+  double operator()(const Vec3& p) const {
+    // The search box: apexes farther than kReach longest edges never matter
+    // for alpha, and for the dihedral objectives, whose supremum can lie at
+    // infinity (a right triangle's max dihedral tends to 90 degrees as the apex
+    // rises), it keeps every search finite.
+    constexpr double kReach = 4.0;
+    if (!(std::fabs(p[0]) <= kReach && std::fabs(p[1]) <= kReach && std::fabs(p[2]) <= kReach))
+      return -std::numeric_limits<double>::infinity();
+    const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
+    const double d[3] = {p[0], p[1], std::fabs(p[2])};
+    if (obj == ApexObjective::Alpha) return alpha(a, b, c, d);
+    double dh[6];
+    dihedral_angles(a, b, c, d, dh);
+    if (d[2] == 0) return obj == ApexObjective::MinDihedral ? 0.0 : -180.0;
+    if (obj == ApexObjective::MinDihedral) return *std::min_element(dh, dh + 6);
+    return -*std::max_element(dh, dh + 6);
+  }
+};
+
+// Closed-form candidate apexes: above the centroid, the incentre and (when
+// inside the triangle) the circumcentre, at a few heights.
+std::vector<Vec3> candidates(const Frame& f) {
+  std::vector<Vec3> pts;
+  const double la = std::hypot(f.bx - f.cx, f.cy), lb = std::hypot(f.cx, f.cy), lc = f.bx;  // opposite a, b, c
+  const double per = la + lb + lc;
+  const double gx = (f.bx + f.cx) / 3, gy = f.cy / 3;
+  const double ix = (lb * f.bx + lc * f.cx) / per, iy = (lc * f.cy) / per;
+  std::vector<std::array<double, 2>> base = {{gx, gy}, {ix, iy}};
+  // circumcentre of (0,0), (bx,0), (cx,cy), kept when inside (acute triangle)
+  const double ox = f.bx / 2;
+  const double oy = (f.cx * f.cx + f.cy * f.cy - f.bx * f.cx) / (2 * f.cy);
+  const double lam_c = oy / f.cy, lam_b = (ox - lam_c * f.cx) / f.bx;
+  if (lam_c > 0 && lam_b > 0 && lam_b + lam_c < 1) base.push_back({ox, oy});
+  const double mean = per / 3;
+  for (const auto& q : base)
+    for (double h : {0.35, 0.6, 0.8165})
+      pts.push_back({q[0], q[1], h * mean});
+  return pts;
+}
+
+// Nelder–Mead simplex search (Nelder and Mead 1965; standard coefficients
+// 1, 2, 0.5, 0.5) maximising g from x0 with initial step `step`.
+template <class G>
+double nelder_mead(const G& g, Vec3& x0, double step, int max_evals) {
+  std::array<Vec3, 4> s;
+  std::array<double, 4> fv;
+  s[0] = x0;
+  for (int i = 0; i < 3; ++i) { s[i + 1] = x0; s[i + 1][i] += step; }
+  for (int i = 0; i < 4; ++i) fv[i] = g(s[i]);
+  int evals = 4;
+  std::array<int, 4> idx{0, 1, 2, 3};
+  while (evals < max_evals) {
+    std::sort(idx.begin(), idx.end(), [&](int p, int q) { return fv[p] > fv[q]; });  // best first
+    const int best = idx[0], worst = idx[3], second_worst = idx[2];
+    double size = 0;
+    for (int i = 1; i < 4; ++i)
+      for (int k = 0; k < 3; ++k) size = std::max(size, std::fabs(s[idx[i]][k] - s[best][k]));
+    if (size < 1e-11 || (fv[best] - fv[worst] <= 1e-15 * std::max(1.0, std::fabs(fv[best])) && size < 1e-7)) break;
+    Vec3 cen{0, 0, 0};
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) cen[k] += s[idx[i]][k] / 3;
+    auto along = [&](double t) {
+      Vec3 r;
+      for (int k = 0; k < 3; ++k) r[k] = cen[k] + t * (s[worst][k] - cen[k]);
+      return r;
+    };
+    const Vec3 xr = along(-1.0);
+    const double fr = g(xr);
+    ++evals;
+    if (fr > fv[best]) {
+      const Vec3 xe = along(-2.0);
+      const double fe = g(xe);
+      ++evals;
+      if (fe > fr) { s[worst] = xe; fv[worst] = fe; } else { s[worst] = xr; fv[worst] = fr; }
+    } else if (fr > fv[second_worst]) {
+      s[worst] = xr; fv[worst] = fr;
+    } else {
+      const bool outside = fr > fv[worst];
+      const Vec3 xc = along(outside ? -0.5 : 0.5);
+      const double fc = g(xc);
+      ++evals;
+      if (fc > (outside ? fr : fv[worst])) {
+        s[worst] = xc; fv[worst] = fc;
+      } else {
+        for (int i = 1; i < 4; ++i) {
+          const int j = idx[i];
+          for (int k = 0; k < 3; ++k) s[j][k] = s[best][k] + 0.5 * (s[j][k] - s[best][k]);
+          fv[j] = g(s[j]);
+          ++evals;
+        }
+      }
+    }
+  }
+  int b = 0;
+  for (int i = 1; i < 4; ++i) if (fv[i] > fv[b]) b = i;
+  x0 = s[b];
+  return fv[b];
+}
+
+// Compass search (Kolda, Lewis and Torczon 2003): poll +-step along each
+// axis, move on improvement, halve the step otherwise.
+template <class G>
+double compass(const G& g, Vec3& x, double fx, double step, double min_step, int max_evals = 3000) {
+  int evals = 0;
+  while (step > min_step && evals < max_evals) {
+    bool moved = false;
+    for (int k = 0; k < 3 && !moved; ++k)
+      for (double sgn : {1.0, -1.0}) {
+        Vec3 y = x;
+        y[k] += sgn * step;
+        const double fy = g(y);
+        ++evals;
+        if (fy > fx) { x = y; fx = fy; moved = true; break; }
+      }
+    if (!moved) step *= 0.5;
+  }
+  return fx;
+}
+
+double degenerate_value(ApexObjective obj) {
+  return obj == ApexObjective::Alpha ? 0.0 : (obj == ApexObjective::MinDihedral ? 0.0 : 180.0);
+}
+
+double to_public(ApexObjective obj, double score) { return obj == ApexObjective::MaxDihedral ? -score : score; }
+
+}  // namespace
+
+double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj) {
+  const Frame f(a, b, c);
+  if (f.degenerate) return degenerate_value(obj);
+  const Objective g{f, obj};
+  double best = -std::numeric_limits<double>::infinity();
+  for (const Vec3& p : candidates(f)) best = std::max(best, g(p));
+  return to_public(obj, best);
+}
+
+namespace {
+// Between cheap and full: the best candidate polished by a short compass
+// search (about 100 evaluations).  Achieved, like both.
+double quick_score(const double* a, const double* b, const double* c, ApexObjective obj) {
+  const Frame f(a, b, c);
+  if (f.degenerate) return to_public(obj, degenerate_value(obj));
+  const Objective g{f, obj};
+  double best = -std::numeric_limits<double>::infinity();
+  Vec3 bp{0, 0, 0};
+  for (const Vec3& p : candidates(f)) {
+    const double v = g(p);
+    if (v > best) { best = v; bp = p; }
+  }
+  return compass(g, bp, best, 0.05, 2e-4, 300);
+}
+}  // namespace
+
+ApexResult best_apex(const double* a, const double* b, const double* c, ApexObjective obj) {
+  ApexResult r;
+  const Frame f(a, b, c);
+  if (f.degenerate) {
+    r.value = degenerate_value(obj);
+    for (int k = 0; k < 3; ++k) r.apex[k] = (a[k] + b[k] + c[k]) / 3;
+    return r;
+  }
+  const Objective g{f, obj};
+  // Starts: the candidates and a coarse grid around the triangle.
+  std::vector<std::pair<double, Vec3>> starts;
+  for (const Vec3& p : candidates(f)) starts.push_back({g(p), p});
+  const double x0 = std::min(0.0, f.cx) - 0.3, x1 = std::max(f.bx, f.cx) + 0.3;
+  const double y0 = -0.5, y1 = f.cy + 0.6;
+  constexpr int kNx = 9, kNy = 9, kNz = 6;
+  for (int i = 0; i < kNx; ++i)
+    for (int j = 0; j < kNy; ++j)
+      for (int k = 0; k < kNz; ++k) {
+        const Vec3 p{x0 + (x1 - x0) * i / (kNx - 1), y0 + (y1 - y0) * j / (kNy - 1), 0.06 + 1.14 * k / (kNz - 1)};
+        starts.push_back({g(p), p});
+      }
+  std::partial_sort(starts.begin(), starts.begin() + 4, starts.end(),
+                    [](const auto& p, const auto& q) { return p.first > q.first; });
+  double best = starts[0].first;
+  Vec3 best_p = starts[0].second;
+  for (int s = 0; s < 4; ++s) {
+    Vec3 x = starts[s].second;
+    double fx = nelder_mead(g, x, 0.08, 600);
+    fx = std::max(fx, nelder_mead(g, x, 0.01, 400));  // restart: cures stalls at kinks
+    if (fx > best) { best = fx; best_p = x; }
+  }
+  best = compass(g, best_p, best, 1e-3, 1e-10);
+  r.value = to_public(obj, best);
+  best_p[2] = std::fabs(best_p[2]);
+  const Vec3 w = f.to_world(best_p);
+  for (int k = 0; k < 3; ++k) r.apex[k] = w[k];
+  return r;
+}
+
+namespace {
+
+// Constrained triangles, each once: packed face 4t+f of its first tet.
+std::vector<int32_t> constrained_faces(const TetMesh& m) {
+  std::vector<int32_t> out;
+  const int32_t nt = m.nt();
+  for (int32_t t = 0; t < nt; ++t) {
+    const uint8_t mask = m.face_mask[t];
+    if (!mask) continue;
+    for (int f = 0; f < 4; ++f) {
+      if (!(mask & (1u << f))) continue;
+      const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f];
+      if (nb >= 0 && (nb >> 2) < t) continue;  // counted from the other tet
+      out.push_back(4 * t + f);
+    }
+  }
+  return out;
+}
+
+void face_points(const TetMesh& m, int32_t packed, const double* p[3]) {
+  const int32_t t = packed >> 2, f = packed & 3;
+  const int32_t* v = m.tet(t);
+  for (int k = 0; k < 3; ++k) p[k] = m.point(v[kFaceVertex[f][k]]);
+}
+
+// Quality of the tets standing on a face (achieved values, so lower bounds on
+// the best apex): the larger over the face's one or two tets.
+void achieved_on_face(const TetMesh& m, int32_t packed, double& a_best, double& dmin_best, double& dmax_best) {
+  a_best = -1;
+  dmin_best = 0;
+  dmax_best = 180;
+  const int32_t nb = m.adj[static_cast<size_t>(packed)];
+  for (int32_t t : {packed >> 2, nb >= 0 ? nb >> 2 : -1}) {
+    if (t < 0) continue;
+    const int32_t* v = m.tet(t);
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
+    const double q = alpha(a, b, c, d);
+    if (q <= 0) continue;
+    double dh[6];
+    dihedral_angles(a, b, c, d, dh);
+    a_best = std::max(a_best, q);
+    dmin_best = std::max(dmin_best, *std::min_element(dh, dh + 6));
+    dmax_best = std::min(dmax_best, *std::max_element(dh, dh + 6));
+  }
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+MeshBound mesh_bound(const TetMesh& m) {
+  const auto t0 = std::chrono::steady_clock::now();
+  MeshBound mb;
+  const std::vector<int32_t> faces = constrained_faces(m);
+  mb.triangles = static_cast<int64_t>(faces.size());
+  if (faces.empty()) return mb;
+  const size_t nf = faces.size();
+  // Cheap achieved scores (maximised), per objective.
+  std::vector<double> cheap[3];
+  for (auto& c : cheap) c.resize(nf);
+  for (size_t i = 0; i < nf; ++i) {
+    const double* p[3];
+    face_points(m, faces[i], p);
+    double qa, qmin, qmax;
+    achieved_on_face(m, faces[i], qa, qmin, qmax);
+    cheap[0][i] = std::max(qa, cheap_apex_value(p[0], p[1], p[2], ApexObjective::Alpha));
+    cheap[1][i] = std::max(qmin, cheap_apex_value(p[0], p[1], p[2], ApexObjective::MinDihedral));
+    cheap[2][i] = -std::min(qmax, cheap_apex_value(p[0], p[1], p[2], ApexObjective::MaxDihedral));
+  }
+  std::vector<uint8_t> refined(nf, 0);
+  const ApexObjective objs[3] = {ApexObjective::Alpha, ApexObjective::MinDihedral, ApexObjective::MaxDihedral};
+  double result[3];
+  size_t arg[3] = {0, 0, 0};
+  std::vector<size_t> order(nf);
+  std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> cache[3];  // shape -> best value
+  for (int o = 0; o < 3; ++o) {
+    std::iota(order.begin(), order.end(), size_t{0});
+    std::sort(order.begin(), order.end(), [&](size_t p, size_t q) {
+      return cheap[o][p] < cheap[o][q] || (cheap[o][p] == cheap[o][q] && p < q);
+    });
+    // Scores within `tol` of the current minimum are not refined: the bound
+    // is exact to tol (1e-4 in alpha, 0.01 degree), which keeps meshes with
+    // many congruent triangles (generated boxes) from refining them all.
+    const double tol = o == 0 ? 1e-4 : 1e-2;
+    // The dihedral bounds cluster (any triangle with a small angle allows a
+    // min dihedral near 60 degrees and a max near 90), so pruning cannot
+    // separate them: only the kDihedralExamined lowest are examined, which
+    // makes those two figures estimates (as bound.py's are); alpha is exact
+    // to tol.
+    constexpr size_t kDihedralExamined = 64;
+    double cur = std::numeric_limits<double>::infinity();
+    size_t examined = 0;
+    for (size_t i : order) {
+      if (cheap[o][i] >= cur - tol) break;  // achieved >= current minimum: cannot hold it
+      if (o > 0 && examined++ >= kDihedralExamined) break;
+      const double* p[3];
+      face_points(m, faces[i], p);
+      if (quick_score(p[0], p[1], p[2], objs[o]) >= cur - tol) continue;
+      std::pair<int64_t, int64_t> key;
+      const bool keyed = shape_key(Frame(p[0], p[1], p[2]), key);
+      double found;
+      auto it = keyed ? cache[o].find(key) : cache[o].end();
+      if (it != cache[o].end()) {
+        found = it->second;
+      } else {
+        found = best_apex(p[0], p[1], p[2], objs[o]).value;
+        if (keyed) cache[o].emplace(key, found);
+        refined[i] = 1;
+      }
+      const double v = std::max(cheap[o][i], objs[o] == ApexObjective::MaxDihedral ? -found : found);
+      if (v < cur) { cur = v; arg[o] = i; }
+    }
+    result[o] = cur;
+  }
+  mb.alpha = result[0];
+  mb.dihedral_min = result[1];
+  mb.dihedral_max = -result[2];
+  mb.alpha_tet = faces[arg[0]] >> 2;
+  mb.alpha_face = faces[arg[0]] & 3;
+  const double* p[3];
+  face_points(m, faces[arg[0]], p);
+  for (int k = 0; k < 3; ++k) mb.alpha_location[k] = (p[0][k] + p[1][k] + p[2][k]) / 3;
+  for (uint8_t r : refined) mb.refined += r;
+  mb.seconds = seconds_since(t0);
+  return mb;
+}
+
+const char* tet_class_name(TetClass c) {
+  switch (c) {
+    case TetClass::Good: return "good";
+    case TetClass::LockedByTriangle: return "locked by its boundary triangle";
+    case TetClass::LockedByNeighbours: return "locked by its constrained neighbours";
+    case TetClass::Improvable: return "improvable (not reached)";
+  }
+  return "?";
+}
+
+Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Diagnosis d;
+  d.threshold = opt.threshold;
+  const int32_t nt = m.nt();
+  d.tets = nt;
+  d.tet_class.assign(static_cast<size_t>(nt), static_cast<uint8_t>(TetClass::Good));
+  std::unordered_map<int32_t, double> face_best;  // canonical packed face -> best alpha
+  std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> shape_best;  // similar triangles
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m.tet(t);
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *e = m.point(v[3]);
+    const double q = alpha(a, b, c, e);
+    if (q >= opt.threshold) continue;
+    PoorTet p;
+    p.tet = t;
+    p.alpha = q;
+    p.kind = m.tet_kind.empty() ? 0 : m.tet_kind[t];
+    double dh[6];
+    dihedral_angles(a, b, c, e, dh);
+    p.dihedral_min = *std::min_element(dh, dh + 6);
+    p.dihedral_max = *std::max_element(dh, dh + 6);
+    for (int k = 0; k < 3; ++k) p.centroid[k] = (a[k] + b[k] + c[k] + e[k]) / 4;
+    const uint8_t mask = m.face_mask.empty() ? 0 : m.face_mask[t];
+    for (int f = 0; f < 4; ++f) {
+      if (!(mask & (1u << f))) continue;
+      p.constrained_faces++;
+      const int32_t packed = 4 * t + f;
+      const int32_t nb = m.adj[static_cast<size_t>(packed)];
+      const int32_t key = nb >= 0 ? std::min(packed, nb) : packed;
+      auto it = face_best.find(key);
+      double best;
+      if (it != face_best.end()) {
+        best = it->second;
+      } else {
+        const double* fp[3];
+        face_points(m, packed, fp);
+        if (cheap_apex_value(fp[0], fp[1], fp[2]) >= opt.threshold) {
+          best = NAN;  // an apex reaching the threshold exists: not a lock
+        } else {
+          std::pair<int64_t, int64_t> shape;
+          const bool keyed = shape_key(Frame(fp[0], fp[1], fp[2]), shape);
+          auto sit = keyed ? shape_best.find(shape) : shape_best.end();
+          if (sit != shape_best.end()) {
+            best = sit->second;
+          } else {
+            best = best_apex(fp[0], fp[1], fp[2]).value;
+            d.faces_searched++;
+            if (keyed) shape_best.emplace(shape, best);
+          }
+        }
+        face_best.emplace(key, best);
+      }
+      if (!std::isnan(best) && (std::isnan(p.best_alpha) || best < p.best_alpha)) {
+        p.best_alpha = best;
+        p.face = f;
+      }
+    }
+    if (!std::isnan(p.best_alpha) && p.best_alpha < opt.threshold) p.cls = TetClass::LockedByTriangle;
+    else if (p.kind == 4) p.cls = TetClass::LockedByNeighbours;
+    else p.cls = TetClass::Improvable;
+    d.tet_class[t] = static_cast<uint8_t>(p.cls);
+    d.count[static_cast<int>(p.cls)]++;
+    d.poor.push_back(p);
+  }
+  d.count[0] = nt - d.count[1] - d.count[2] - d.count[3];
+  std::sort(d.poor.begin(), d.poor.end(), [](const PoorTet& x, const PoorTet& y) {
+    return x.alpha < y.alpha || (x.alpha == y.alpha && x.tet < y.tet);
+  });
+  if (opt.mesh_bound) d.bound = mesh_bound(m);
+  d.seconds = seconds_since(t0);
+  return d;
+}
+
+namespace {
+std::string num(double x, const char* f = "%.17g") {
+  if (std::isnan(x)) return "null";
+  if (std::isinf(x)) return x > 0 ? "1e999" : "-1e999";
+  char b[48];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+std::string fixed(double x, const char* f) {
+  if (std::isnan(x)) return "-";
+  char b[48];
+  std::snprintf(b, sizeof b, f, x);
+  return b;
+}
+}  // namespace
+
+std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
+  std::ostringstream o;
+  const int64_t below = d.count[1] + d.count[2] + d.count[3];
+  o << "  diagnosis at α < " << fixed(d.threshold, "%.3g") << ": " << below << " tets";
+  if (below)
+    o << " — " << d.count[1] << " locked by their boundary triangle, " << d.count[2]
+      << " locked by constrained neighbours, " << d.count[3] << " improvable (not reached)";
+  o << "\n";
+  if (d.bound.triangles > 0 && !std::isnan(d.bound.alpha)) {
+    o << "  bound from " << d.bound.triangles << " constrained triangles: any mesh keeping them has α ≤ "
+      << fixed(d.bound.alpha, "%.4f") << ", min dihedral ≤ " << fixed(d.bound.dihedral_min, "%.2f")
+      << "°, max dihedral ≥ " << fixed(d.bound.dihedral_max, "%.2f") << "°  (triangle of tet "
+      << d.bound.alpha_tet + 1 << " at " << fixed(d.bound.alpha_location[0], "%.6g") << " "
+      << fixed(d.bound.alpha_location[1], "%.6g") << " " << fixed(d.bound.alpha_location[2], "%.6g") << ")\n";
+  }
+  for (size_t i = 0; i < d.poor.size() && i < max_list; ++i) {
+    const PoorTet& p = d.poor[i];
+    o << "    tet " << p.tet + 1 << "  α " << fixed(p.alpha, "%.4f") << "  kind " << p.kind << "  at "
+      << fixed(p.centroid[0], "%.6g") << " " << fixed(p.centroid[1], "%.6g") << " " << fixed(p.centroid[2], "%.6g")
+      << ": " << tet_class_name(p.cls);
+    if (p.cls == TetClass::LockedByTriangle) o << " (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
+    o << "\n";
+  }
+  return o.str();
+}
+
+std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
+  const std::string pad(static_cast<size_t>(indent), ' ');
+  std::ostringstream o;
+  o << "{\n";
+  o << pad << "\"threshold\": " << num(d.threshold) << ",\n";
+  o << pad << "\"below_threshold\": " << d.count[1] + d.count[2] + d.count[3] << ",\n";
+  o << pad << "\"locked_by_triangle\": " << d.count[1] << ",\n";
+  o << pad << "\"locked_by_neighbours\": " << d.count[2] << ",\n";
+  o << pad << "\"improvable\": " << d.count[3] << ",\n";
+  o << pad << "\"faces_searched\": " << d.faces_searched << ",\n";
+  o << pad << "\"bound\": {\"constrained_triangles\": " << d.bound.triangles
+    << ", \"alpha_upper_bound\": " << num(d.bound.alpha)
+    << ", \"min_dihedral_upper_bound\": " << num(d.bound.dihedral_min)
+    << ", \"max_dihedral_lower_bound\": " << num(d.bound.dihedral_max) << ", \"alpha_tet\": " << d.bound.alpha_tet
+    << ", \"alpha_face\": " << d.bound.alpha_face << ", \"alpha_location\": [" << num(d.bound.alpha_location[0])
+    << ", " << num(d.bound.alpha_location[1]) << ", " << num(d.bound.alpha_location[2])
+    << "], \"triangles_refined\": " << d.bound.refined << ", \"seconds\": " << num(d.bound.seconds) << "},\n";
+  o << pad << "\"seconds\": " << num(d.seconds) << ",\n";
+  o << pad << "\"tets\": [";
+  const size_t n = max_list ? std::min(max_list, d.poor.size()) : d.poor.size();
+  for (size_t i = 0; i < n; ++i) {
+    const PoorTet& p = d.poor[i];
+    o << (i ? ",\n" : "\n") << pad << pad << "{\"id\": " << p.tet << ", \"class\": "
+      << (p.cls == TetClass::LockedByTriangle ? "\"locked_by_triangle\""
+          : p.cls == TetClass::LockedByNeighbours ? "\"locked_by_neighbours\""
+                                                  : "\"improvable\"")
+      << ", \"alpha\": " << num(p.alpha) << ", \"dihedral_min\": " << num(p.dihedral_min)
+      << ", \"dihedral_max\": " << num(p.dihedral_max) << ", \"kind\": " << p.kind
+      << ", \"best_alpha\": " << num(p.best_alpha) << ", \"face\": " << p.face << ", \"centroid\": ["
+      << num(p.centroid[0]) << ", " << num(p.centroid[1]) << ", " << num(p.centroid[2]) << "]}";
+  }
+  o << (n ? "\n" + pad : "") << "]\n}";
+  return o.str();
+}
+
+std::vector<CellField> diagnosis_cell_fields(const Diagnosis& d, int32_t nt) {
+  std::vector<CellField> f;
+  std::vector<double> cls(static_cast<size_t>(nt), 0.0), bound(static_cast<size_t>(nt), NAN);
+  for (int32_t t = 0; t < nt && static_cast<size_t>(t) < d.tet_class.size(); ++t) cls[t] = d.tet_class[t];
+  for (const PoorTet& p : d.poor)
+    if (p.tet < nt) bound[p.tet] = p.best_alpha;
+  f.push_back({"diagnosis", std::move(cls), true});
+  f.push_back({"alpha_bound", std::move(bound), false});
+  return f;
+}
+
+namespace {
+void sorted_quad(const int32_t* v, int32_t out[4]) {
+  for (int k = 0; k < 4; ++k) out[k] = v[k];
+  std::sort(out, out + 4);
+}
+bool quad_less(const int32_t* a, const int32_t* b) { return std::lexicographical_compare(a, a + 4, b, b + 4); }
+}  // namespace
+
+TetValueMap::TetValueMap(const TetMesh& m, const std::vector<double>& values) {
+  const int32_t nt = m.nt();
+  entries_.resize(static_cast<size_t>(nt));
+  for (int32_t t = 0; t < nt; ++t) {
+    sorted_quad(m.tet(t), entries_[t].v);
+    entries_[t].value = t < static_cast<int32_t>(values.size()) ? values[t] : NAN;
+  }
+  std::sort(entries_.begin(), entries_.end(), [](const Entry& a, const Entry& b) { return quad_less(a.v, b.v); });
+}
+
+std::vector<double> TetValueMap::lookup(const TetMesh& m) const {
+  const int32_t nt = m.nt();
+  std::vector<double> out(static_cast<size_t>(nt), NAN);
+  for (int32_t t = 0; t < nt; ++t) {
+    Entry key;
+    sorted_quad(m.tet(t), key.v);
+    auto it = std::lower_bound(entries_.begin(), entries_.end(), key,
+                               [](const Entry& a, const Entry& b) { return quad_less(a.v, b.v); });
+    if (it != entries_.end() && std::equal(key.v, key.v + 4, it->v)) out[t] = it->value;
+  }
+  return out;
+}
+
+int64_t TetValueMap::matched(const TetMesh& m) const {
+  int64_t n = 0;
+  for (double x : lookup(m)) n += !std::isnan(x);
+  return n;
+}
+
+}  // namespace tetopt

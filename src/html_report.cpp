@@ -1,0 +1,349 @@
+// The self-contained HTML report (see html_report.hpp).
+#include "tetopt/html_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "tetopt/io.hpp"
+
+namespace tetopt {
+
+QualityHistograms quality_histograms(const TetMesh& m, int alpha_bins, int dihedral_bins) {
+  QualityHistograms h;
+  h.alpha = {0.0, 1.0, std::vector<int64_t>(static_cast<size_t>(std::max(1, alpha_bins)), 0)};
+  h.dihedral = {0.0, 180.0, std::vector<int64_t>(static_cast<size_t>(std::max(1, dihedral_bins)), 0)};
+  auto bin = [](const Histogram& hh, double x) {
+    const int n = static_cast<int>(hh.counts.size());
+    if (!(x > hh.lo)) return 0;  // also NaN
+    return std::min(n - 1, static_cast<int>((x - hh.lo) / (hh.hi - hh.lo) * n));
+  };
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
+    h.alpha.counts[static_cast<size_t>(bin(h.alpha, alpha(a, b, c, d)))]++;
+    double dh[6];
+    dihedral_angles(a, b, c, d, dh);
+    for (double x : dh) h.dihedral.counts[static_cast<size_t>(bin(h.dihedral, x))]++;
+  }
+  return h;
+}
+
+namespace {
+
+std::string esc(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    switch (c) {
+      case '&': o += "&amp;"; break;
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '"': o += "&quot;"; break;
+      case '\'': o += "&#39;"; break;
+      default: o += c;
+    }
+  }
+  return o;
+}
+
+std::string f(const char* fmt, double x) {
+  if (std::isnan(x)) return "–";
+  char b[64];
+  std::snprintf(b, sizeof b, fmt, x);
+  return b;
+}
+
+const char* kStyle = R"(
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,"Helvetica Neue",Arial,sans-serif;margin:24px auto;max-width:1120px;color:#1f2933;background:#fff;line-height:1.4}
+h1{font-size:1.6em;margin:0 0 4px}h2{font-size:1.2em;margin:28px 0 8px;border-bottom:1px solid #d9e2ec;padding-bottom:4px}
+.files{color:#52606d;font-family:ui-monospace,Menlo,Consolas,monospace;font-size:.9em}
+table{border-collapse:collapse;margin:6px 0;font-size:.92em}th,td{border:1px solid #d9e2ec;padding:3px 8px;text-align:right}
+th{background:#f0f4f8;font-weight:600}td.l,th.l{text-align:left}
+.verdict{display:inline-block;padding:8px 14px;border-radius:6px;font-weight:600;margin-top:10px}
+.ok{background:#e3f9e5;color:#05400a;border:1px solid #57ae5b}.bad{background:#ffe3e3;color:#610404;border:1px solid #e12d39}
+.na{background:#f0f4f8;color:#334e68;border:1px solid #9fb3c8}
+.charts{display:flex;flex-wrap:wrap;gap:16px}.chart{border:1px solid #d9e2ec;border-radius:6px;padding:8px}
+svg text{font-size:11px;fill:#334e68}.s0{fill:#9fb3c8}.s1{fill:#2680c2}.bar:hover{fill:#f0b429}
+.c1{color:#ab091e}.c2{color:#8d2b0b}.c3{color:#0b6e4f}
+button{font:inherit;padding:3px 10px;margin:4px 0}.note{color:#52606d;font-size:.88em}
+)";
+
+const char* kScript = R"(
+(function(){
+  var scale = 'log';
+  function apply(){
+    var svgs = document.querySelectorAll('svg.hist');
+    for (var i = 0; i < svgs.length; ++i) {
+      var svg = svgs[i], max = +svg.getAttribute('data-max'), h = +svg.getAttribute('data-plot-h'),
+          base = +svg.getAttribute('data-base'), bars = svg.querySelectorAll('rect.bar');
+      for (var j = 0; j < bars.length; ++j) {
+        var c = +bars[j].getAttribute('data-count');
+        var fr = max <= 0 ? 0 : (scale === 'log' ? Math.log(1 + c) / Math.log(1 + max) : c / max);
+        var hh = fr * h; if (c > 0 && hh < 1) hh = 1;
+        bars[j].setAttribute('height', hh.toFixed(2)); bars[j].setAttribute('y', (base - hh).toFixed(2));
+      }
+      var axes = svg.querySelectorAll('g.yaxis');
+      for (var k = 0; k < axes.length; ++k)
+        axes[k].style.display = axes[k].getAttribute('data-scale') === scale ? '' : 'none';
+    }
+    var b = document.getElementById('scale-toggle');
+    if (b) b.textContent = scale === 'log' ? 'show counts on a linear scale' : 'show counts on a log scale';
+  }
+  var btn = document.getElementById('scale-toggle');
+  if (btn) btn.addEventListener('click', function(){ scale = scale === 'log' ? 'linear' : 'log'; apply(); });
+  apply();
+  document.documentElement.setAttribute('data-report-ready', '1');
+})();
+)";
+
+// A grouped bar chart of one or two histograms over the same bins.  Heights
+// are drawn on a log(1+count) scale (the bad tail is a handful of tets among
+// millions); the script can switch to linear.
+std::string svg_histogram(const std::string& id, const std::string& title, const std::string& unit,
+                          const std::vector<const Histogram*>& series, const std::vector<std::string>& names,
+                          int label_every, const char* label_fmt) {
+  const Histogram& h0 = *series[0];
+  const size_t nb = h0.counts.size();
+  const double W = 520, H = 250, ml = 52, mr = 10, mt = 26, mb = 40;
+  const double pw = W - ml - mr, ph = H - mt - mb, base = mt + ph;
+  int64_t max = 0;
+  for (const Histogram* h : series)
+    for (int64_t c : h->counts) max = std::max(max, c);
+  std::ostringstream o;
+  o << "<svg class=\"hist\" id=\"" << id << "\" xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\""
+    << H << "\" viewBox=\"0 0 " << W << " " << H << "\" data-max=\"" << max << "\" data-plot-h=\"" << ph
+    << "\" data-base=\"" << base << "\" data-bins=\"" << nb << "\" data-series=\"" << series.size()
+    << "\" role=\"img\" aria-label=\"" << esc(title) << "\">\n";
+  o << "<text x=\"" << ml << "\" y=\"16\" style=\"font-size:13px;font-weight:600\">" << esc(title) << "</text>\n";
+  // Legend.
+  for (size_t s = 0; s < series.size(); ++s) {
+    const double lx = W - mr - 150 + 80.0 * static_cast<double>(s);
+    o << "<rect class=\"s" << (series.size() == 1 ? 1 : s) << "\" x=\"" << lx << "\" y=\"7\" width=\"10\" height=\"10\"/>"
+      << "<text x=\"" << lx + 14 << "\" y=\"16\">" << esc(names[s]) << "</text>\n";
+  }
+  // Y axes: log (default) and linear, one shown at a time.
+  auto y_of = [&](double frac) { return base - frac * ph; };
+  o << "<g class=\"yaxis\" data-scale=\"log\">";
+  for (int64_t p = 1; max > 0 && p <= max * 10; p *= 10) {
+    if (p > max) break;
+    const double y = y_of(std::log1p(static_cast<double>(p)) / std::log1p(static_cast<double>(max)));
+    o << "<line x1=\"" << ml << "\" x2=\"" << ml + pw << "\" y1=\"" << y << "\" y2=\"" << y
+      << "\" stroke=\"#e4e7eb\"/><text x=\"" << ml - 4 << "\" y=\"" << y + 4 << "\" text-anchor=\"end\">" << p
+      << "</text>";
+  }
+  o << "</g>\n<g class=\"yaxis\" data-scale=\"linear\" style=\"display:none\">";
+  for (int k = 1; max > 0 && k <= 4; ++k) {
+    const double v = static_cast<double>(max) * k / 4;
+    const double y = y_of(static_cast<double>(k) / 4);
+    o << "<line x1=\"" << ml << "\" x2=\"" << ml + pw << "\" y1=\"" << y << "\" y2=\"" << y
+      << "\" stroke=\"#e4e7eb\"/><text x=\"" << ml - 4 << "\" y=\"" << y + 4 << "\" text-anchor=\"end\">"
+      << std::llround(v) << "</text>";
+  }
+  o << "</g>\n";
+  // Bars.
+  const double bw = pw / static_cast<double>(nb);
+  const double gap = std::min(2.0, bw * 0.15);
+  const double sw = (bw - gap) / static_cast<double>(series.size());
+  for (size_t i = 0; i < nb; ++i) {
+    const double lo = h0.lo + (h0.hi - h0.lo) * static_cast<double>(i) / static_cast<double>(nb);
+    const double hi = h0.lo + (h0.hi - h0.lo) * static_cast<double>(i + 1) / static_cast<double>(nb);
+    for (size_t s = 0; s < series.size(); ++s) {
+      const int64_t c = series[s]->counts[i];
+      double hh = max > 0 ? std::log1p(static_cast<double>(c)) / std::log1p(static_cast<double>(max)) * ph : 0;
+      if (c > 0 && hh < 1) hh = 1;
+      char b[64];
+      std::snprintf(b, sizeof b, "%.2f", hh);
+      const double x = ml + bw * static_cast<double>(i) + gap / 2 + sw * static_cast<double>(s);
+      o << "<rect class=\"bar s" << (series.size() == 1 ? 1 : s) << "\" x=\"" << x << "\" y=\"" << base - hh
+        << "\" width=\"" << std::max(0.5, sw - 0.5) << "\" height=\"" << b << "\" data-count=\"" << c
+        << "\"><title>" << esc(names[s]) << ": " << f(label_fmt, lo) << "–" << f(label_fmt, hi) << unit << ": " << c
+        << "</title></rect>";
+    }
+    o << "\n";
+  }
+  // X axis.
+  o << "<line x1=\"" << ml << "\" x2=\"" << ml + pw << "\" y1=\"" << base << "\" y2=\"" << base
+    << "\" stroke=\"#52606d\"/>\n";
+  for (size_t i = 0; i <= nb; i += static_cast<size_t>(label_every)) {
+    const double x = ml + bw * static_cast<double>(i);
+    const double v = h0.lo + (h0.hi - h0.lo) * static_cast<double>(i) / static_cast<double>(nb);
+    o << "<line x1=\"" << x << "\" x2=\"" << x << "\" y1=\"" << base << "\" y2=\"" << base + 4
+      << "\" stroke=\"#52606d\"/><text x=\"" << x << "\" y=\"" << base + 16 << "\" text-anchor=\"middle\">"
+      << f(label_fmt, v) << "</text>";
+  }
+  o << "\n<text x=\"" << ml + pw / 2 << "\" y=\"" << H - 6 << "\" text-anchor=\"middle\">" << esc(unit.empty() ? "α" : "dihedral angle (degrees)")
+    << "</text>\n</svg>\n";
+  return o.str();
+}
+
+void stats_tables(std::ostringstream& o, const HtmlReportInput& in) {
+  std::vector<std::pair<std::string, const QualityStats*>> rows = {{in.has_after ? "before" : "mesh", &in.before}};
+  if (in.has_after) rows.push_back({"after", &in.after});
+  o << "<h2>Statistics</h2>\n<p class=\"note\">Columns of the paper's Tables 1–3 (Liu et al. 2012): α = "
+       "6√6·V / (Σ face areas · longest edge); boundary elements are tets with at least one constrained "
+       "vertex (kinds 1–4).</p>\n";
+  o << "<table id=\"stats\"><tr><th class=\"l\"></th><th>nodes</th><th>elements</th><th>worst α</th><th>mean α</th>"
+       "<th>worst α boundary</th><th>mean α boundary</th><th>min dihedral</th><th>max dihedral</th></tr>\n";
+  for (const auto& [name, s] : rows)
+    o << "<tr><td class=\"l\">" << name << "</td><td>" << s->vertices << "</td><td>" << s->tets << "</td><td>"
+      << f("%.4f", s->alpha_worst) << "</td><td>" << f("%.4f", s->alpha_mean) << "</td><td>"
+      << f("%.4f", s->alpha_boundary_worst) << "</td><td>" << f("%.4f", s->alpha_boundary_mean) << "</td><td>"
+      << f("%.2f°", s->dihedral_min) << "</td><td>" << f("%.2f°", s->dihedral_max) << "</td></tr>\n";
+  o << "</table>\n";
+  o << "<table id=\"counts\"><tr><th class=\"l\"></th><th>interior</th><th>kind 1</th><th>kind 2</th><th>kind 3</th>"
+       "<th>all-boundary (kind 4)</th><th>α&lt;0.1</th><th>α&lt;0.2</th><th>α&lt;0.3</th><th>inverted/flat</th>"
+       "<th>angle &lt;5°</th><th>angle &gt;175°</th><th>regions</th></tr>\n";
+  for (const auto& [name, s] : rows) {
+    o << "<tr><td class=\"l\">" << name << "</td>";
+    for (int k = 0; k < 5; ++k) o << "<td>" << s->kind_count[k] << "</td>";
+    o << "<td>" << s->alpha_below_01 << "</td><td>" << s->alpha_below_02 << "</td><td>" << s->alpha_below_03
+      << "</td><td>" << s->inverted_or_flat << "</td><td>" << s->dihedral_below_5 << "</td><td>"
+      << s->dihedral_above_175 << "</td><td>" << s->regions << "</td></tr>\n";
+  }
+  o << "</table>\n";
+}
+
+void run_tables(std::ostringstream& o, const HtmlReportInput& in) {
+  o << "<h2>Run</h2>\n";
+  if (!in.run) {
+    o << "<p class=\"note\">No improvement run (this page describes one mesh).</p>\n";
+    return;
+  }
+  const ImproveReport& r = *in.run;
+  if (in.options)
+    o << "<p>mode <b>" << mode_name(in.options->mode) << "</b>, optimiser "
+      << (in.options->maxmin_optimizer ? "maxmin" : "paper") << ", C = " << f("%.2f", in.options->weight)
+      << ", threshold γ = " << f("%.3g", in.options->threshold) << ", seed " << in.options->seed << ", threads "
+      << in.options->threads << ", " << r.rounds << " rounds</p>\n";
+  o << "<table id=\"times\"><tr><th class=\"l\">phase</th><th>seconds</th></tr>\n"
+    << "<tr><td class=\"l\">smoothing</td><td>" << f("%.3f", r.seconds_smooth) << "</td></tr>\n"
+    << "<tr><td class=\"l\">topology</td><td>" << f("%.3f", r.seconds_topo) << "</td></tr>\n"
+    << "<tr><td class=\"l\">invariant check</td><td>" << f("%.3f", r.seconds_check) << "</td></tr>\n"
+    << "<tr><td class=\"l\">improve total</td><td>" << f("%.3f", r.seconds_total) << "</td></tr>\n";
+  if (in.diagnosis)
+    o << "<tr><td class=\"l\">diagnosis (after)</td><td>" << f("%.3f", in.diagnosis->seconds) << "</td></tr>\n";
+  if (!std::isnan(in.seconds_end_to_end))
+    o << "<tr><td class=\"l\">end to end (read, improve, write)</td><td>" << f("%.3f", in.seconds_end_to_end)
+      << "</td></tr>\n";
+  o << "</table>\n";
+  o << "<table id=\"operations\"><tr><th class=\"l\">operation</th><th>applied</th></tr>\n"
+    << "<tr><td class=\"l\">smoothing moves (of " << r.smooth_tried << " tried)</td><td>" << r.smooth_moves
+    << "</td></tr>\n"
+    << "<tr><td class=\"l\">2-3 flips</td><td>" << r.flip23 << "</td></tr>\n"
+    << "<tr><td class=\"l\">3-2 flips</td><td>" << r.flip32 << "</td></tr>\n"
+    << "<tr><td class=\"l\">2-2 flips</td><td>" << r.flip22 << "</td></tr>\n"
+    << "<tr><td class=\"l\">4-4 flips</td><td>" << r.flip44 << "</td></tr>\n"
+    << "<tr><td class=\"l\">edge removals</td><td>" << r.edge_removals << "</td></tr>\n"
+    << "<tr><td class=\"l\">multi-face removals</td><td>" << r.multi_face_removals << "</td></tr>\n"
+    << "<tr><td class=\"l\">all-boundary tets removed</td><td>" << r.all_boundary_removed << "</td></tr>\n"
+    << "</table>\n";
+}
+
+void diagnosis_section(std::ostringstream& o, const HtmlReportInput& in) {
+  o << "<h2>Why are the remaining tets bad?</h2>\n";
+  const Diagnosis* d = in.diagnosis;
+  if (!d) {
+    o << "<p class=\"note\">Diagnosis not computed.</p>\n";
+    return;
+  }
+  const int64_t below = d->count[1] + d->count[2] + d->count[3];
+  o << "<p>" << below << " of " << d->tets << " tets have α &lt; " << f("%.3g", d->threshold)
+    << (in.has_after ? " after improvement" : "") << ".</p>\n";
+  o << "<table id=\"diagnosis\"><tr><th class=\"l\">class</th><th>tets</th><th class=\"l\">meaning</th></tr>\n"
+    << "<tr><td class=\"l c1\">locked by its boundary triangle</td><td>" << d->count[1]
+    << "</td><td class=\"l\">a constrained face admits no apex with α ≥ γ: no boundary-preserving method can "
+       "lift this tet above γ</td></tr>\n"
+    << "<tr><td class=\"l c2\">locked by its constrained neighbours</td><td>" << d->count[2]
+    << "</td><td class=\"l\">all four vertices constrained (cannot be smoothed); only a topological change "
+       "could help, and none was found</td></tr>\n"
+    << "<tr><td class=\"l c3\">improvable (not reached)</td><td>" << d->count[3]
+    << "</td><td class=\"l\">no bound forbids a better tet here; the method did not reach it</td></tr>\n"
+    << "</table>\n";
+  const MeshBound& b = d->bound;
+  if (b.triangles > 0 && !std::isnan(b.alpha))
+    o << "<p id=\"bound\">Bound from the " << b.triangles
+      << " constrained triangles (best apex searched per triangle): any mesh keeping them has worst α ≤ <b>"
+      << f("%.4f", b.alpha) << "</b>, smallest dihedral ≤ " << f("%.2f°", b.dihedral_min)
+      << ", largest dihedral ≥ " << f("%.2f°", b.dihedral_max) << ". The α bound comes from a face of tet "
+      << b.alpha_tet + 1 << " at (" << f("%.6g", b.alpha_location[0]) << ", " << f("%.6g", b.alpha_location[1])
+      << ", " << f("%.6g", b.alpha_location[2]) << ").</p>\n";
+  if (d->poor.empty()) return;
+  const size_t nl = std::min(in.max_tets_listed, d->poor.size());
+  o << "<p class=\"note\">The " << nl << " worst of them (tet ids 1-based as the command line prints them; the "
+       "ParaView cell id is one less):</p>\n";
+  o << "<table id=\"worst\"><tr><th>tet</th><th>α</th><th>min dihedral</th><th>max dihedral</th><th>kind</th>"
+       "<th class=\"l\">class</th><th>best possible α</th><th>centroid x</th><th>y</th><th>z</th></tr>\n";
+  for (size_t i = 0; i < nl; ++i) {
+    const PoorTet& p = d->poor[i];
+    const int c = static_cast<int>(p.cls);
+    o << "<tr><td>" << p.tet + 1 << "</td><td>" << f("%.4f", p.alpha) << "</td><td>" << f("%.2f", p.dihedral_min)
+      << "</td><td>" << f("%.2f", p.dihedral_max) << "</td><td>" << p.kind << "</td><td class=\"l c" << c << "\">"
+      << tet_class_name(p.cls) << "</td><td>"
+      << (std::isnan(p.best_alpha) ? (p.constrained_faces > 0 ? "≥ " + f("%.3g", d->threshold) : std::string("–"))
+                                  : f("%.4f", p.best_alpha))
+      << "</td><td>" << f("%.6g", p.centroid[0]) << "</td><td>" << f("%.6g", p.centroid[1]) << "</td><td>"
+      << f("%.6g", p.centroid[2]) << "</td></tr>\n";
+  }
+  o << "</table>\n";
+}
+
+}  // namespace
+
+std::string html_report(const HtmlReportInput& in) {
+  std::ostringstream o;
+  o << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>" << esc(in.title)
+    << "</title>\n<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<style>" << kStyle
+    << "</style>\n</head>\n<body>\n";
+  o << "<h1>" << esc(in.title) << "</h1>\n<div class=\"files\">" << esc(in.input);
+  if (!in.output.empty()) o << " → " << esc(in.output);
+  o << "</div>\n";
+  // Verdict first: it is the promise.
+  if (in.run) {
+    const ImproveReport& r = *in.run;
+    if (!r.invariants_checked)
+      o << "<div class=\"verdict na\" id=\"verdict\">boundary unchanged: not checked (--no-check)</div>\n";
+    else if (r.invariants_ok)
+      o << "<div class=\"verdict ok\" id=\"verdict\">boundary unchanged: yes — checked: constrained vertices "
+           "bit-identical, constrained faces identical, no inverted tet (exact predicate), region volumes "
+           "kept</div>\n";
+    else
+      o << "<div class=\"verdict bad\" id=\"verdict\">boundary unchanged: NO — " << esc(r.invariant_message)
+        << "</div>\n";
+  } else {
+    o << "<div class=\"verdict na\" id=\"verdict\">boundary unchanged: not applicable (no change made)</div>\n";
+  }
+  // Charts.
+  o << "<h2>Distributions</h2>\n<button id=\"scale-toggle\" type=\"button\">show counts on a linear scale</button> "
+       "<span class=\"note\">Bar heights use a log(1 + count) scale by default so a handful of bad tets "
+       "stays visible; hover a bar for its count.</span>\n<div class=\"charts\">\n";
+  std::vector<const Histogram*> sa = {&in.before_hist.alpha}, sd = {&in.before_hist.dihedral};
+  std::vector<std::string> names = {in.has_after ? "before" : "mesh"};
+  if (in.has_after) {
+    sa.push_back(&in.after_hist.alpha);
+    sd.push_back(&in.after_hist.dihedral);
+    names.push_back("after");
+  }
+  const int abins = static_cast<int>(in.before_hist.alpha.counts.size());
+  const int dbins = static_cast<int>(in.before_hist.dihedral.counts.size());
+  o << "<div class=\"chart\">"
+    << svg_histogram("hist-alpha", "α (one per tet)", "", sa, names, std::max(1, abins / 10), "%.1f")
+    << "</div>\n";
+  o << "<div class=\"chart\">"
+    << svg_histogram("hist-dihedral", "dihedral angles (6 per tet)", "°", sd, names,
+                     std::max(1, dbins / 6), "%.0f")
+    << "</div>\n</div>\n";
+  stats_tables(o, in);
+  run_tables(o, in);
+  diagnosis_section(o, in);
+  o << "<p class=\"note\">Written by tetopt. This page is self-contained: no network, no external scripts or "
+       "fonts.</p>\n";
+  o << "<script>" << kScript << "</script>\n</body>\n</html>\n";
+  return o.str();
+}
+
+Status write_html_report(const std::string& path, const HtmlReportInput& in) {
+  return write_file_atomic(path, html_report(in));
+}
+
+}  // namespace tetopt
