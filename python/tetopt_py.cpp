@@ -45,6 +45,15 @@
 #include "tetopt/quality.hpp"
 #include "tetopt/status.hpp"
 
+// The diagnosis ("why is this tet still bad?") is optional: older trees of
+// the library do not have it.
+#if __has_include("tetopt/diagnose.hpp")
+#include "tetopt/diagnose.hpp"
+#define TETOPT_PY_HAVE_DIAGNOSE 1
+#else
+#define TETOPT_PY_HAVE_DIAGNOSE 0
+#endif
+
 namespace py = pybind11;
 
 namespace {
@@ -411,7 +420,25 @@ struct PyImproveOptions {
   double weight = 0.75, threshold = 0.3;
   long long iterations = 10, seed = 0, threads = 0;
   bool check = true;
+  bool diagnose = false;
 };
+
+/// The diagnosis of m as JSON (the CLI's "diagnosis" object, `max_list`
+/// worst tets) and the per-tet class; runs without the GIL.
+std::string diagnosis_json(const TetMesh& m, double threshold, size_t max_list, std::vector<uint8_t>* classes) {
+#if TETOPT_PY_HAVE_DIAGNOSE
+  py::gil_scoped_release nogil;
+  tetopt::DiagnoseOptions dopt;
+  dopt.threshold = threshold;
+  dopt.mesh_bound = true;
+  tetopt::Diagnosis d = tetopt::diagnose(m, dopt);
+  if (classes) *classes = std::move(d.tet_class);
+  return tetopt::diagnosis_to_json(d, max_list, 2);
+#else
+  (void)m, (void)threshold, (void)max_list, (void)classes;
+  throw std::runtime_error("this build of tetopt has no diagnosis (tetopt/diagnose.hpp)");
+#endif
+}
 
 tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
   tetopt::ImproveOptions o;
@@ -488,6 +515,12 @@ std::string run_improve(TetMesh& m, const tetopt::ImproveOptions& opt, const py:
   return js;
 }
 
+/// The CLI's improve report keeps the 1000 worst tets of the diagnosis.
+py::object improve_diagnosis(const TetMesh& m, const tetopt::ImproveOptions& opt, const PyImproveOptions& popt) {
+  if (!popt.diagnose) return py::none();
+  return py::str(diagnosis_json(m, opt.threshold, 1000, nullptr));
+}
+
 py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py::handle constrained_faces,
                          const PyImproveOptions& popt, const py::object& log) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -508,11 +541,12 @@ py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py
   throw_status(tetopt::check_arrays(m, "mesh"));
   const tetopt::OrientationReport orient = prepare(m, true);
   const std::string js = run_improve(m, opt, log, t0, "<arrays>");
+  py::object dj = improve_diagnosis(m, opt, popt);
   if (orient.flipped)  // hand the tets back in the caller's (negative) convention
     for (int32_t t = 0; t < m.nt(); ++t) std::swap(m.tets[4 * size_t(t) + tetopt::kFlipA], m.tets[4 * size_t(t) + tetopt::kFlipB]);
   const auto nv = static_cast<py::ssize_t>(m.nv());
   return py::make_tuple(to_numpy(std::move(m.xyz), {nv, 3}), rows(std::move(m.tets), 4), vec(std::move(m.tet_ref)),
-                        js);
+                        js, dj);
 }
 
 py::tuple improve_mesh(const py::dict& d, const PyImproveOptions& popt, const py::object& log) {
@@ -521,12 +555,15 @@ py::tuple improve_mesh(const py::dict& d, const PyImproveOptions& popt, const py
   TetMesh m = mesh_from_dict(d);
   prepare(m, true);
   const std::string js = run_improve(m, opt, log, t0, "<mesh>");
-  return py::make_tuple(mesh_to_dict(std::move(m)), js);
+  py::object dj = improve_diagnosis(m, opt, popt);
+  return py::make_tuple(mesh_to_dict(std::move(m)), js, dj);
 }
 
 // ---------------------------------------------------------------- quality
 
-py::tuple quality_mesh(const py::dict& d) {
+py::tuple quality_mesh(const py::dict& d, bool diagnose, double threshold) {
+  if (diagnose && !(threshold > 0 && threshold <= 1))
+    throw py::value_error("threshold: must be in (0, 1], got " + py::repr(py::float_(threshold)).cast<std::string>());
   TetMesh m = mesh_from_dict(d);
   prepare(m, false);
   tetopt::QualityStats st;
@@ -538,7 +575,13 @@ py::tuple quality_mesh(const py::dict& d) {
   }
   const auto nt = static_cast<py::ssize_t>(m.nt());
   std::vector<int8_t> kind(m.tet_kind.begin(), m.tet_kind.end());
-  return py::make_tuple(tetopt::stats_to_json(st), to_numpy(std::move(f.alpha), {nt}),
+  py::object dj = py::none(), classes = py::none();
+  if (diagnose) {  // as `tetopt quality --json`: the 100 worst tets
+    std::vector<uint8_t> cls;
+    dj = py::str(diagnosis_json(m, threshold, 100, &cls));
+    classes = to_numpy(std::vector<int8_t>(cls.begin(), cls.end()), {nt});
+  }
+  return py::make_tuple(tetopt::stats_to_json(st), dj, classes, to_numpy(std::move(f.alpha), {nt}),
                         to_numpy(std::move(f.dihedral_min), {nt}), to_numpy(std::move(f.dihedral_max), {nt}),
                         to_numpy(std::move(kind), {nt}));
 }
@@ -600,15 +643,18 @@ PYBIND11_MODULE(_tetopt, mod) {
       .def_readwrite("iterations", &PyImproveOptions::iterations)
       .def_readwrite("seed", &PyImproveOptions::seed)
       .def_readwrite("threads", &PyImproveOptions::threads)
-      .def_readwrite("check", &PyImproveOptions::check);
+      .def_readwrite("check", &PyImproveOptions::check)
+      .def_readwrite("diagnose", &PyImproveOptions::diagnose);
+  mod.attr("HAVE_DIAGNOSE") = py::bool_(TETOPT_PY_HAVE_DIAGNOSE != 0);
 
   mod.def("improve_arrays", &improve_arrays, py::arg("points"), py::arg("tets"), py::arg("refs"),
           py::arg("constrained_faces"), py::arg("options"), py::arg("log"),
-          "improve_arrays(points, tets, refs, constrained_faces, options, log) -> (points, tets, refs, report_json)");
+          "improve_arrays(points, tets, refs, constrained_faces, options, log) -> (points, tets, refs, report_json, diagnosis_json|None)");
   mod.def("improve_mesh", &improve_mesh, py::arg("mesh"), py::arg("options"), py::arg("log"),
-          "improve_mesh(mesh_dict, options, log) -> (mesh_dict, report_json)");
-  mod.def("quality_mesh", &quality_mesh, py::arg("mesh"),
-          "quality_mesh(mesh_dict) -> (stats_json, alpha, dihedral_min, dihedral_max, kind)");
+          "improve_mesh(mesh_dict, options, log) -> (mesh_dict, report_json, diagnosis_json|None)");
+  mod.def("quality_mesh", &quality_mesh, py::arg("mesh"), py::arg("diagnose"), py::arg("threshold"),
+          "quality_mesh(mesh_dict, diagnose, threshold) -> (stats_json, diagnosis_json|None, classes|None, alpha, "
+          "dihedral_min, dihedral_max, kind)");
   mod.def("read", &read_file, py::arg("path"), "read(path) -> (mesh_dict, inverted_ids, flat_ids)");
   mod.def("write", &write_file, py::arg("path"), py::arg("mesh"), py::arg("msh_version"), py::arg("binary"),
           py::arg("meshb_version"), "write(path, mesh_dict, msh_version, binary, meshb_version)");

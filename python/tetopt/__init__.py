@@ -143,7 +143,7 @@ class Mesh:
 
 
 def _options(mode: str, optimizer: str, weight: float, threshold: float, iterations: int, seed: int,
-             threads: int, check: bool) -> Any:
+             threads: int, check: bool, diagnose: bool) -> Any:
     o = _tetopt.ImproveOptions()
     for name, value, kind in (("mode", mode, str), ("optimizer", optimizer, str)):
         if not isinstance(value, kind):
@@ -160,7 +160,15 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
             raise ValueError(f"{name}: {value} is out of range")
         setattr(o, name, int(value))
     o.check = bool(check)
+    o.diagnose = bool(diagnose)
     return o
+
+
+def _with_diagnosis(js: str, dj: Optional[str]) -> Dict[str, Any]:
+    report: Dict[str, Any] = json.loads(js)
+    if dj is not None:
+        report["diagnosis"] = json.loads(dj)
+    return report
 
 
 def improve(
@@ -177,6 +185,7 @@ def improve(
     constrained_faces: Any = None,
     optimizer: str = "paper",
     check: bool = True,
+    diagnose: bool = False,
     log: Optional[LogCallback] = None,
 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
     """Improves a tetrahedral mesh; returns ``(points, tets, refs, report)``.
@@ -211,6 +220,12 @@ def improve(
         optimizer: 'paper' (gradient + golden-section line search) or
             'maxmin' (Freitag's nonsmooth max-min), for 'smooth'/'combined'.
         check: prove the invariants at the end (recommended).
+        diagnose: also classify the tets still below ``threshold`` after the
+            run (include/tetopt/diagnose.hpp: locked by a constrained
+            triangle, locked by constrained neighbours, or improvable) and
+            bound the best reachable quality; adds ``report["diagnosis"]``
+            as ``tetopt improve --report`` does.  Can take long on meshes
+            with many constrained triangles, hence off by default.
         log: optional callable ``log(level, message)``, level one of
             'debug', 'info', 'progress', 'warning'.
 
@@ -221,7 +236,8 @@ def improve(
         report: dict with the keys of ``tetopt improve --report`` JSON:
             tool, version, input, output, options, before, after (quality
             statistics as ``quality()``), operations, seconds,
-            boundary_unchanged, seconds_end_to_end.
+            boundary_unchanged, seconds_end_to_end (and diagnosis when
+            ``diagnose``).
 
     Raises:
         ValueError: bad arguments or an invalid mesh (message names it).
@@ -232,9 +248,9 @@ def improve(
     into the library's own arrays and the outputs are handed over without a
     copy.
     """
-    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check)
-    p, t, r, js = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log)
-    return p, t, r, json.loads(js)
+    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose)
+    p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log)
+    return p, t, r, _with_diagnosis(js, dj)
 
 
 def improve_mesh(
@@ -248,6 +264,7 @@ def improve_mesh(
     threads: int = 0,
     optimizer: str = "paper",
     check: bool = True,
+    diagnose: bool = False,
     log: Optional[LogCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole :class:`Mesh` (as :func:`read` returns it); returns ``(mesh, report)``.
@@ -258,14 +275,15 @@ def improve_mesh(
     that ``write()`` produces the file ``tetopt improve`` would.  The input
     mesh is not modified.
     """
-    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check)
+    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose)
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
-    d, js = _tetopt.improve_mesh(mesh._as_dict(), o, log)
-    return Mesh._from_dict(d), json.loads(js)
+    d, js, dj = _tetopt.improve_mesh(mesh._as_dict(), o, log)
+    return Mesh._from_dict(d), _with_diagnosis(js, dj)
 
 
-def quality(points: Any, tets: Any = None, refs: Any = None, *, constrained_faces: Any = None) -> Dict[str, Any]:
+def quality(points: Any, tets: Any = None, refs: Any = None, *, constrained_faces: Any = None,
+            diagnose: bool = False, threshold: float = 0.3) -> Dict[str, Any]:
     """Quality statistics and per-tet measures of a mesh.
 
     Call as ``quality(points, tets[, refs], constrained_faces=...)`` or
@@ -282,6 +300,11 @@ def quality(points: Any, tets: Any = None, refs: Any = None, *, constrained_face
         dict of (m,) arrays: ``alpha`` (float64), ``dihedral_min`` and
         ``dihedral_max`` (float64, degrees) and ``kind`` (int8, the number
         of constrained vertices, 0..4; 4 = the paper's all-boundary element).
+        With ``diagnose``, also ``diagnosis`` (as ``tetopt quality --json
+        --threshold``: counts per class, the mesh-wide bound, the 100 worst
+        tets) and ``per_tet["diagnosis"]`` (int8: 0 good, 1 locked by a
+        triangle, 2 locked by neighbours, 3 improvable; ``threshold`` is the
+        gamma below which a tet is classified).
 
     Like the CLI, a mesh whose tets are mostly negative is taken as stored in
     the opposite convention and measured flipped; inverted tets are allowed
@@ -295,9 +318,13 @@ def quality(points: Any, tets: Any = None, refs: Any = None, *, constrained_face
         if tets is None:
             raise ValueError("tets: required (or pass a tetopt.Mesh)")
         d = {"points": points, "tets": tets, "refs": refs, "triangles": constrained_faces}
-    js, alpha, dmin, dmax, kind = _tetopt.quality_mesh(d)
-    out: Dict[str, Any] = json.loads(js)
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, float, np.integer, np.floating)):
+        raise ValueError(f"threshold: expected a number, got {threshold!r}")
+    js, dj, classes, alpha, dmin, dmax, kind = _tetopt.quality_mesh(d, bool(diagnose), float(threshold))
+    out = _with_diagnosis(js, dj)
     out["per_tet"] = {"alpha": alpha, "dihedral_min": dmin, "dihedral_max": dmax, "kind": kind}
+    if classes is not None:
+        out["per_tet"]["diagnosis"] = classes
     return out
 
 

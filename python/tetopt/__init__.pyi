@@ -77,6 +77,7 @@ def improve(
     constrained_faces: Optional[ArrayLike] = None,
     optimizer: str = "paper",
     check: bool = True,
+    diagnose: bool = False,
     log: Optional[LogCallback] = None,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.int32], Dict[str, Any]]:
     """Improves a tetrahedral mesh without touching its constrained vertices and faces.
@@ -97,15 +98,22 @@ def improve_mesh(
     threads: int = 0,
     optimizer: str = "paper",
     check: bool = True,
+    diagnose: bool = False,
     log: Optional[LogCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole Mesh as `tetopt improve` does (listed entities constrained, everything kept)."""
 
 @overload
-def quality(points: Mesh) -> Dict[str, Any]: ...
+def quality(points: Mesh, *, diagnose: bool = False, threshold: float = 0.3) -> Dict[str, Any]: ...
 @overload
 def quality(
-    points: ArrayLike, tets: ArrayLike, refs: Optional[ArrayLike] = None, *, constrained_faces: Optional[ArrayLike] = None
+    points: ArrayLike,
+    tets: ArrayLike,
+    refs: Optional[ArrayLike] = None,
+    *,
+    constrained_faces: Optional[ArrayLike] = None,
+    diagnose: bool = False,
+    threshold: float = 0.3,
 ) -> Dict[str, Any]:
     """Statistics (keys of `tetopt quality --json`) plus per_tet arrays alpha, dihedral_min, dihedral_max, kind."""
 

@@ -1,0 +1,204 @@
+"""Bad arguments raise clear exceptions; nothing crashes the interpreter."""
+import os
+
+import numpy as np
+import pytest
+
+import tetopt
+
+P = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]], dtype=np.float64)
+T = np.array([[0, 1, 2, 3], [1, 2, 3, 4]], dtype=np.int32)  # both positive
+
+
+def test_valid_input_runs():
+    p, t, r, rep = tetopt.improve(P, T)
+    assert t.shape[1] == 4 and rep["boundary_unchanged"]["ok"]
+    q = tetopt.quality(P, T)
+    assert q["tets"] == 2 and q["inverted_or_flat"] == 0
+
+
+@pytest.mark.parametrize("points,tets,match", [
+    (P[:, :2], T, r"points: expected shape \(n, 3\), got \(5, 2\)"),
+    (P.ravel(), T, r"points: expected shape \(n, 3\), got \(15,\)"),
+    (P, T[:, :3], r"tets: expected shape \(n, 4\), got \(2, 3\)"),
+    (P, T.ravel(), r"tets: expected shape \(n, 4\)"),
+    (P, T.astype(np.float64), r"tets: expected an integer dtype, got float64"),
+    (P, T.astype(bool), r"tets: expected an integer dtype, got bool"),
+    (P.astype(np.complex128), T, r"points: expected a real \(float64\) dtype, got complex128"),
+    (P.astype(object), T, r"points: expected a real \(float64\) dtype, got object"),
+    (np.array([["a", "b", "c"]] * 5), T, r"points: expected a real"),
+    (P, np.array([[0, 1, 2, 5], [1, 2, 3, 4]]), r"tets\[0, 3\] = 5 is out of range: points has 5 entries"),
+    (P, np.array([[0, 1, 2, 3], [1, 2, -1, 4]]), r"tets\[1, 2\] = -1 is out of range"),
+    (P, np.array([[0, 1, 2, 2**40]]), r"tets\[0, 3\] = 1099511627776 is out of range"),
+    (P, np.array([[0, 1, 2, 3]], dtype=np.uint64) + np.uint64(2**63), r"is out of range"),
+    (P, np.zeros((0, 4), np.int32), r"no tetrahedra"),
+    (P, [[0, 1, 2, 2]], r"repeats vertex"),
+    (np.where(np.arange(15).reshape(5, 3) == 4, np.nan, P), T, r"points\[1\] has a NaN or infinite coordinate"),
+    (np.where(np.arange(15).reshape(5, 3) == 14, np.inf, P), T, r"points\[4\] has a NaN or infinite coordinate"),
+    (None, T, r"points: required"),
+    (P, None, r"tets: required"),
+    ([[0, 0], [1]], T, r"points"),
+])
+def test_bad_arrays_raise_value_error(points, tets, match):
+    with pytest.raises(ValueError, match=match):
+        tetopt.improve(points, tets)
+    if tets is not None:
+        with pytest.raises(ValueError):
+            tetopt.quality(points, tets)
+
+
+def test_bad_refs_and_faces():
+    with pytest.raises(ValueError, match=r"refs: expected 2 entries \(one per tet\), got 3"):
+        tetopt.improve(P, T, [1, 2, 3])
+    with pytest.raises(ValueError, match=r"refs: expected an integer dtype, got float64"):
+        tetopt.improve(P, T, [1.5, 2.0])
+    with pytest.raises(ValueError, match=r"refs\[1\] = 4294967296 does not fit a 32-bit signed integer"):
+        tetopt.improve(P, T, np.array([1, 2**32]))
+    with pytest.raises(ValueError, match=r"constrained_faces: expected shape \(n, 3\)"):
+        tetopt.improve(P, T, constrained_faces=[[0, 1]])
+    with pytest.raises(ValueError, match=r"constrained_faces\[0, 2\] = 9 is out of range"):
+        tetopt.improve(P, T, constrained_faces=[[0, 1, 9]])
+
+
+def test_inverted_and_flat_tets_are_named():
+    pts = np.vstack([P, [[0, 0, -1]]])
+    tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4], [0, 1, 2, 5]])
+    # tets 0 and 1 positive; tet 2 (below the face 0 1 2) listed the wrong way round.
+    with pytest.raises(ValueError, match=r"1 inverted tets \(0-based ids: 2\)"):
+        tetopt.improve(pts, tets)
+    flat = np.vstack([P, [[0.5, 0.5, 0]]])
+    tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4], [0, 1, 5, 2]])  # tet 2 lies in z = 0
+    with pytest.raises(ValueError, match=r"1 flat \(zero-volume\) tets \(0-based ids: 2\)"):
+        tetopt.improve(flat, tets)
+    # quality() measures them instead of refusing.
+    q = tetopt.quality(flat, tets)
+    assert q["inverted_or_flat"] == 1 and q["per_tet"]["alpha"][2] == 0
+
+
+def test_non_manifold_mesh_is_a_value_error():
+    pts = np.vstack([P, [[0.2, 0.2, -1], [0.3, 0.3, -2]]])
+    # Three tets on the face (0, 1, 2).
+    tets = np.array([[0, 1, 2, 3], [0, 2, 1, 5], [0, 2, 1, 6]])
+    with pytest.raises(ValueError):
+        tetopt.improve(pts, tets)
+    with pytest.raises(ValueError):
+        tetopt.quality(pts, tets)
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    ({"mode": "fast"}, r"mode: expected 'best', 'combined', 'smooth' or 'topo', got 'fast'"),
+    ({"mode": 3}, r"mode: expected a str"),
+    ({"optimizer": "newton"}, r"optimizer: expected 'paper' or 'maxmin'"),
+    ({"weight": 1.0}, r"weight: must satisfy 0.5 <= weight < 1, got 1.0"),
+    ({"weight": 0.2}, r"weight: must satisfy"),
+    ({"weight": float("nan")}, r"weight: must satisfy"),
+    ({"weight": "0.7"}, r"weight: expected a number"),
+    ({"threshold": 0.0}, r"threshold: must be in \(0, 1\]"),
+    ({"threshold": float("nan")}, r"threshold: must be in"),
+    ({"iterations": -1}, r"iterations: must be in 0..1000000"),
+    ({"iterations": 2.5}, r"iterations: expected an int"),
+    ({"seed": -3}, r"seed: must be >= 0"),
+    ({"seed": 2**70}, r"seed: .* is out of range"),
+    ({"threads": 5000}, r"threads: must be in 0..1024"),
+])
+def test_bad_options_raise_value_error(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        tetopt.improve(P, T, **kwargs)
+
+
+def test_exception_in_log_callback_propagates():
+    def log(level, msg):
+        raise KeyError("from the callback")
+
+    with pytest.raises(KeyError, match="from the callback"):
+        tetopt.improve(P, T, log=log)
+    # The module still works afterwards.
+    assert tetopt.improve(P, T)[3]["boundary_unchanged"]["ok"]
+
+
+def test_file_errors(tmp_path):
+    with pytest.raises(OSError, match="missing.mesh"):
+        tetopt.read(tmp_path / "missing.mesh")
+    bad = tmp_path / "bad.mesh"
+    bad.write_text("MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n"
+                   "Tetrahedra\n1\n1 2 3 9 1\nEnd\n")
+    with pytest.raises(ValueError, match="bad.mesh"):
+        tetopt.read(bad)
+    with pytest.raises(ValueError, match="unknown extension"):
+        tetopt.read(tmp_path / "x.stl")
+    mesh = tetopt.Mesh(points=P, tets=T)
+    with pytest.raises(ValueError, match="unknown extension"):
+        tetopt.write(tmp_path / "x.stl", mesh)
+    with pytest.raises(ValueError, match="msh_version: expected 22 or 41"):
+        tetopt.write(tmp_path / "x.msh", mesh, msh_version=3)
+    with pytest.raises(ValueError, match="meshb_version"):
+        tetopt.write(tmp_path / "x.meshb", mesh, meshb_version=9)
+    with pytest.raises(OSError):
+        tetopt.write(tmp_path / "no" / "such" / "dir.mesh", mesh)
+    with pytest.raises(ValueError, match="expected a tetopt.Mesh"):
+        tetopt.write(tmp_path / "x.mesh", {"points": P})
+    with pytest.raises((ValueError, TypeError)):
+        tetopt.read(12)
+    assert not any(p.name.startswith("x.") for p in tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("field,value,match", [
+    ("refs", [1], r"refs: expected 2 entries"),
+    ("point_refs", [1, 2], r"point_refs: expected 5 entries"),
+    ("triangles", [[0, 1, 7]], r"triangles\[0, 2\] = 7 is out of range"),
+    ("triangle_refs", [1, 2], r"triangle_refs: expected 0 entries"),
+    ("edges", [[0, 1, 2]], r"edges: expected shape \(n, 2\)"),
+    ("required_triangles", [0], r"required_triangles\[0\] = 0 is out of range: triangles is empty"),
+    ("required_vertices", [5], r"required_vertices\[0\] = 5 is out of range"),
+    ("ridges", [0], r"ridges\[0\] = 0 is out of range: edges is empty"),
+    ("tet_entities", [1, 2, 3], r"tet_entities: expected 2 entries"),
+    ("groups", [(3, 1)], r"groups: each entry must be a \(dim, tag, name\) tuple"),
+    ("groups", [5], r"groups: each entry must be"),
+    ("groups", [(7, 1, "x")], r"groups: dim must be 0..3"),
+    ("point_data", {"f": np.zeros(3)}, r"point_data\['f'\]: expected shape \(5,\)"),
+    ("point_data", {"f": np.array(["a"] * 5)}, r"point_data\['f'\]: expected a real or integer dtype"),
+    ("point_data", [1], r"point_data: expected a dict"),
+    ("source_format", "stl", r"source_format: expected one of"),
+])
+def test_bad_mesh_fields(tmp_path, field, value, match):
+    mesh = tetopt.Mesh(points=P, tets=T, **{field: value})
+    with pytest.raises(ValueError, match=match):
+        mesh.validate()
+    with pytest.raises(ValueError, match=match):
+        tetopt.write(tmp_path / "x.mesh", mesh)
+    with pytest.raises(ValueError, match=match):
+        tetopt.improve_mesh(mesh)
+
+
+def test_improve_mesh_rejects_non_mesh():
+    with pytest.raises(ValueError, match="expected a tetopt.Mesh"):
+        tetopt.improve_mesh((P, T))
+
+
+def test_gil_is_released(cli, tmp_path):
+    """Another Python thread runs while improve() works."""
+    import subprocess
+    import threading
+    import time
+
+    path = tmp_path / "big.mesh"
+    subprocess.run([cli, "generate", str(path), "--cells", "12", "12", "12", "--jitter", "0.4"], check=True)
+    mesh = tetopt.read(path)
+    done = {}
+
+    def work():
+        t0 = time.perf_counter()
+        tetopt.improve(mesh.points, mesh.tets, mesh.refs, iterations=3)
+        done["seconds"] = time.perf_counter() - t0
+
+    th = threading.Thread(target=work)
+    ticks = 0
+    th.start()
+    while th.is_alive():
+        ticks += 1
+        time.sleep(0.001)
+    th.join()
+    if done["seconds"] < 0.2:
+        pytest.skip(f"improve took only {done['seconds']:.3f} s; too short to observe")
+    # With the GIL held for the whole run this thread could not tick at all.
+    assert ticks >= 20, (ticks, done)
