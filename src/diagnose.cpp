@@ -95,11 +95,37 @@ struct Objective {
     const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
     const double d[3] = {p[0], p[1], std::fabs(p[2])};
     if (obj == ApexObjective::Alpha) return alpha(a, b, c, d);
-    double dh[6];
-    dihedral_angles(a, b, c, d, dh);
     if (d[2] == 0) return obj == ApexObjective::MinDihedral ? 0.0 : -180.0;
-    if (obj == ApexObjective::MinDihedral) return *std::min_element(dh, dh + 6);
-    return -*std::max_element(dh, dh + 6);
+    // Dihedral at edge (i,j) = pi - angle between the outward normals of the
+    // two faces holding it; only the extreme one needs an acos.
+    const double* corner[4] = {a, b, c, d};
+    double nrm[4][3];
+    for (int k = 0; k < 4; ++k) {
+      const double* q0 = corner[kFaceVertex[k][0]];
+      const double* q1 = corner[kFaceVertex[k][1]];
+      const double* q2 = corner[kFaceVertex[k][2]];
+      const double u[3] = {q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]};
+      const double v[3] = {q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2]};
+      double* n = nrm[k];
+      n[0] = u[1] * v[2] - u[2] * v[1];
+      n[1] = u[2] * v[0] - u[0] * v[2];
+      n[2] = u[0] * v[1] - u[1] * v[0];
+      const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      if (!(l > 0)) return obj == ApexObjective::MinDihedral ? 0.0 : -180.0;
+      n[0] /= l; n[1] /= l; n[2] /= l;
+    }
+    double cmin = 2, cmax = -2;  // cosines of the dihedral angles
+    for (int e = 0; e < 6; ++e) {
+      const int o = kEdgeOpposite[e];
+      const double* n1 = nrm[kEdgeVertex[o][0]];
+      const double* n2 = nrm[kEdgeVertex[o][1]];
+      const double cs = -(n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]);
+      cmin = std::min(cmin, cs);
+      cmax = std::max(cmax, cs);
+    }
+    const double kDeg = 180.0 / M_PI;
+    if (obj == ApexObjective::MinDihedral) return std::acos(std::clamp(cmax, -1.0, 1.0)) * kDeg;
+    return -std::acos(std::clamp(cmin, -1.0, 1.0)) * kDeg;
   }
 };
 
