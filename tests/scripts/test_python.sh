@@ -8,6 +8,7 @@ set -u
 T=$1; SRC=$2
 PY=/usr/bin/python3
 BUILD=$(cd "$(dirname "$T")" && pwd)
+T="$BUILD/$(basename "$T")"   # absolute: pytest runs from the tests folder
 MOD="$BUILD/python"
 
 [ -x "$PY" ] || { echo "skip: $PY not found"; exit 77; }
@@ -20,10 +21,21 @@ inc=$("$PY" -c "import sysconfig; print(sysconfig.get_paths()['include'])" 2>/de
 "$PY" -c "import numpy" 2>/dev/null || { echo "skip: numpy is not installed (Debian: python3-numpy)"; exit 77; }
 "$PY" -c "import pytest" 2>/dev/null || { echo "skip: pytest is not installed (Debian: python3-pytest)"; exit 77; }
 
-if ! ls "$MOD"/tetopt/_tetopt*.so >/dev/null 2>&1; then
+so=$(ls "$MOD"/tetopt/_tetopt*.so 2>/dev/null | head -n 1)
+if [ -z "$so" ]; then
   echo "FAIL: pybind11 and Python headers are present but $MOD/tetopt/_tetopt*.so was not built"
   echo "      (configured with -DTETOPT_BUILD_PYTHON=OFF? see the 'tetopt: Python module' line of cmake)"
   exit 1
+fi
+
+# A sanitizer build (TETOPT_SANITIZE) instruments the module too: the ASan
+# runtime must then be loaded first into the uninstrumented interpreter, and
+# CPython's own allocations are not ours to report as leaks.
+if ldd "$so" 2>/dev/null | grep -q libasan; then
+  asan=$(ldd "$so" | awk '/libasan/ {print $3}')
+  export LD_PRELOAD="$asan${LD_PRELOAD:+:$LD_PRELOAD}"
+  export ASAN_OPTIONS="detect_leaks=0${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
+  echo "note: sanitizer build, preloading $asan"
 fi
 
 # The module imported must be the one in this build tree.
