@@ -56,10 +56,10 @@
 namespace tetopt {
 
 struct RelaxOptions {
-  int rounds = 40;              ///< rounds of (steps Jacobi steps, one flip pass)
+  int rounds = 15;              ///< rounds of (steps Jacobi steps, one flip pass)
   int steps = 4;                ///< Jacobi relaxation steps per round
   double step = 0.7;            ///< fraction of the way to the weighted centroid moved per step
-  double gradation = 0.6;       ///< g: how fast the size field falls away from constrained vertices
+  double gradation = 1.0;       ///< g: how fast the size field falls away from constrained vertices
   double alpha_floor = 0.02;    ///< a move may not push a tet below min(its alpha, this)
   double flip_threshold = 1.1;  ///< flip_pass visits tets with alpha below this (> 1: all)
   double trigger_fraction = 0.25;  ///< relax_wanted: fraction of tets with alpha < 0.1
