@@ -15,11 +15,12 @@
 //   mesh-smoothing view of centroidal Voronoi / optimal Delaunay
 //   tessellations: Du, Faber & Gunzburger 1999; Chen & Xu 2004; Alliez,
 //   Cohen-Steiner, Yvinec & Desbrun 2005, "Variational tetrahedral meshing")
-//   1. Size field.  Every constrained vertex c gets h_c = mean length of its
-//      constrained edges (edges of constrained faces).  The size of a free
-//      vertex is h(v) = max(h_min, max over constrained c of h_c - g * d(c,v))
-//      with d the shortest-path length along mesh edges (multi-source
-//      Dijkstra, O(E log V)) and g = RelaxOptions::gradation; h_min is the
+//   1. Size field.  Every constrained face f gets h_f = its mean edge
+//      length.  A vertex gets h(v) = max(h_min, h_f - g * dist(v, f)) for the
+//      face f propagated to it by a multi-source Dijkstra over mesh edges
+//      (largest value first, each vertex inheriting the face of the
+//      neighbour that reached it: the feature-propagation approximation of
+//      max over all f, O(E log V)); g = RelaxOptions::gradation; h_min is the
 //      spacing the free vertices would have if spread evenly,
 //      (domain volume / free vertices)^(1/3).  Density rho = h^-3: large
 //      constrained faces ask for sparse vertices near them.
@@ -84,8 +85,8 @@ double bad_tet_fraction(const TetMesh& m);
 /// (bad_tet_fraction(m) >= o.trigger_fraction).
 bool relax_wanted(const TetMesh& m, const RelaxOptions& o = {});
 
-/// Size field of step 1 of the essay (one value per vertex; constrained
-/// vertices get their constrained-edge mean length, unused vertices 0).
+/// Size field of step 1 of the essay (one value per vertex, at least h_min;
+/// unused vertices 0).
 /// Requires m's topology.
 std::vector<double> relax_size_field(const TetMesh& m, double gradation);
 
