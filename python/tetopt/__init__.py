@@ -370,7 +370,7 @@ def write(path: PathLike, mesh: Any, *, msh_version: int = 41, binary: bool = Fa
             mesh = from_meshio(mesh)
         else:
             raise ValueError(f"mesh: expected a tetopt.Mesh or meshio.Mesh, got {type(mesh).__name__}")
-    if isinstance(binary, (bool, np.bool_)) is False:
+    if not isinstance(binary, (bool, np.bool_)):
         raise ValueError(f"binary: expected a bool, got {binary!r}")
     for name, value in (("msh_version", msh_version), ("meshb_version", meshb_version)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
