@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "tetopt/invariants.hpp"
+#include "tetopt/relax.hpp"
 #include "tetopt/report.hpp"
 #include "tetopt/smooth.hpp"
 #include "tetopt/topo.hpp"
@@ -145,6 +146,17 @@ class Driver {
   // the max-min optimiser (which directly raises the worst alpha of a star);
   // gamma rises from the user's threshold as the poor tets disappear.
   Status best() {
+    // A globally bad mesh (a quarter of its tets below alpha 0.1, e.g. a lazy
+    // random triangulation) first gets a global relaxation: local passes on
+    // the worst tets cannot reorganise thousands of vertices (relax.hpp).
+    if (relax_wanted(m_)) {
+      const auto t = Clock::now();
+      const RelaxStats rs = relax_pass(m_, RelaxOptions{}, sub_log_);
+      r_.smooth_moves += rs.moves;
+      r_.smooth_tried += rs.moves + rs.put_back;
+      r_.seconds_smooth += since(t);
+      if (!rs.status) return rs.status;
+    }
     double gamma = o_.threshold;
     double prev_worst = worst_alpha(m_);
     int stale = 0;
