@@ -118,6 +118,7 @@ TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : m_(m), o_(o) {
     std::sort(tri.begin(), tri.end());
     for (const auto& k : tri) listed_tris_.insert(listed_tris_.end(), k.begin(), k.end());
   }
+  vstamp_.assign(m_.nv(), 0);
   cand_ = new Candidate;
   best_ = new Candidate;
   stats_.tets_before = nt;
@@ -206,12 +207,17 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   int arg[kMaxShell][kMaxShell];
   const double* pa = m_.point(a);
   const double* pb = m_.point(b);
+  // Branch and bound: a triangulation whose worst alpha does not exceed
+  // `floor` is refused anyway (policy, or a better option already found by
+  // improve_tet), so triangles at or below it are never evaluated twice.
+  double floor = bound_;
+  if (strict || o_.must_improve) floor = std::max(floor, c.old_min + o_.margin);
   for (int i = 0; i + 1 < n; ++i) q[i][i + 1] = kInf;
   for (int len = 2; len < n; ++len)
     for (int i = 0; i + len < n; ++i) {
       const int j = i + len;
-      double best = -kInf;
-      int bk = i + 1;
+      double best = floor;
+      int bk = -1;
       for (int k = i + 1; k < j; ++k) {
         double v = std::min(q[i][k], q[k][j]);
         if (v <= best) continue;
@@ -226,10 +232,11 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
           bk = k;
         }
       }
-      q[i][j] = best;
+      q[i][j] = bk < 0 ? -kInf : best;
       arg[i][j] = bk;
     }
   c.new_min = q[0][n - 1];
+  if (c.new_min == -kInf) return floor > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
   if (!(c.new_min > 0)) return TopoResult::Inverted;
   if (c.new_min <= c.old_min + o_.margin && (strict || o_.must_improve || c.new_min < c.old_min - o_.worsen_bound))
     return TopoResult::NotImproved;
@@ -563,6 +570,8 @@ void TopoEditor::commit(const Candidate& c) {
     alpha_[s] = c.new_alpha[i];
   }
   for (int i = c.n_new; i < c.n_old; ++i) free_.push_back(c.old_tets[i]);
+  for (int i = 0; i < c.n_new; ++i)
+    for (int k = 0; k < 4; ++k) vstamp_[c.quad[i][k]] = stamp_;
   count(c);
 }
 
@@ -642,13 +651,18 @@ TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
     } else if (rank(r) > rank(why)) {
       why = r;
     }
+    // Later options must beat the best so far (ties on alpha may still win
+    // on the kind-4 count, hence nextafter).
+    if (have) bound_ = std::nextafter(best_->new_min, -kInf);
   };
+  bound_ = -kInf;
   if (o_.use_edge_removal)
     for (int le = 0; le < 6; ++le) consider(plan_edge(t, le, 0, strict, *cand_));
   for (int lf = 0; lf < 4; ++lf) {
     if (o_.use_face_swap) consider(plan_multi(t, lf, 1, strict, *cand_));
     if (o_.use_multi_face) consider(plan_multi(t, lf, o_.max_shell - 2, strict, *cand_));
   }
+  bound_ = -kInf;
   if (!have) return why;
   commit(*best_);
   return TopoResult::Applied;
@@ -677,6 +691,8 @@ void TopoEditor::finish() {
     }
     m_.tet_ref[h] = m_.tet_ref[l];
     if (has_entity) m_.tet_entity[h] = m_.tet_entity[l];
+    m_.face_mask[h] = m_.face_mask[l];
+    m_.tet_kind[h] = m_.tet_kind[l];
     --nt;
   }
   while (nt > 0 && m_.tets[4 * static_cast<size_t>(nt - 1)] < 0) --nt;
@@ -685,8 +701,13 @@ void TopoEditor::finish() {
   m_.adj.resize(4 * static_cast<size_t>(nt));
   m_.tet_ref.resize(nt);
   if (has_entity) m_.tet_entity.resize(nt);
+  m_.face_mask.resize(nt);
+  m_.tet_kind.resize(nt);
+  // face_mask and tet_kind were kept right by commit() (new interior faces
+  // are free, outer faces keep their bit, vertex flags never change), so
+  // classify() (O(nt) with a binary search per listed-triangle lookup) is not
+  // needed; only the vertex->tet CSR is stale.
   build_vertex_tets(m_);
-  classify(m_);
   m_.topology_epoch++;
   stats_.tets_after = nt;
 }
@@ -735,13 +756,20 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
       st.alpha_worst_before = std::min(st.alpha_worst_before, ed.cached_alpha(t));
     }
     std::vector<int32_t> work;
+    uint32_t prev_stamp = 0;
     for (int p = 0; p < o.passes; ++p) {
+      // Pass 1 visits every poor tet; later passes only those next to a
+      // change of the previous pass: the others would meet the same shells
+      // and sandwiches (geometry does not move here) and fail again.
+      const uint32_t stamp = ed.next_stamp();
       work.clear();
       for (int32_t t = 0; t < m.nt(); ++t) {
         if (!ed.alive(t)) continue;
+        if (p > 0 && !ed.touched_since(t, prev_stamp)) continue;
         if (ed.cached_alpha(t) < o.quality_threshold && (kind == PassKind::Quality || m.tet_kind[t] == 4))
           work.push_back(t);
       }
+      prev_stamp = stamp;
       int64_t changed = 0;
       for (int32_t t : work) {
         if (!ed.alive(t)) continue;

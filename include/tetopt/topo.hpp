@@ -50,8 +50,8 @@
 // face_mask and tet_kind are kept right incrementally: a removed tet's slot is
 // reused, extra new tets are appended, and removed slots left over are
 // tombstones (tets[4t] == -1) until finish() compacts them (swap with last),
-// rebuilds the vertex->tet CSR, re-runs classify() and bumps
-// m.topology_epoch.  Vertex constraint flags never change (constrained faces
+// rebuilds the vertex->tet CSR and bumps m.topology_epoch (classify() is not
+// re-run: the incremental face_mask / tet_kind equal its answer, tested).  Vertex constraint flags never change (constrained faces
 // survive, so their vertices do).  Iteration is in index order: the same input
 // gives the same output.
 //
@@ -168,9 +168,19 @@ class TopoEditor {
 
   bool alive(int32_t t) const;      ///< t is a live tet (not a tombstone)
   double cached_alpha(int32_t t) const { return alpha_[t]; }
+  /// Starts a new change epoch and returns it: every commit stamps the
+  /// vertices of its new tets with the current epoch.
+  uint32_t next_stamp() { return ++stamp_; }
+  /// True when a commit since epoch s (inclusive) created a tet sharing a
+  /// vertex with live tet t, i.e. t's edge shells may have changed.
+  bool touched_since(int32_t t, uint32_t s) const {
+    const int32_t* v = m_.tet(t);
+    return vstamp_[v[0]] >= s || vstamp_[v[1]] >= s || vstamp_[v[2]] >= s || vstamp_[v[3]] >= s;
+  }
   const TopoStats& stats() const { return stats_; }
   TopoStats& stats() { return stats_; }
-  /// Compacts tombstones, rebuilds vertex->tet CSR, classify(), bumps
+  /// Compacts tombstones (moving face_mask / tet_kind along: commit keeps them
+  /// right, so classify() is not re-run), rebuilds the vertex->tet CSR, bumps
   /// topology_epoch.  Idempotent; the editor must not be used afterwards.
   void finish();
 
@@ -187,6 +197,9 @@ class TopoEditor {
   TopoOptions o_;
   std::vector<double> alpha_;
   std::vector<int32_t> free_;
+  std::vector<uint32_t> vstamp_;  // per vertex: epoch of the last commit touching it
+  uint32_t stamp_ = 1;
+  double bound_ = -1e300;  // improve_tet: options must beat this worst alpha (branch and bound)
   std::vector<uint64_t> listed_edges_;
   std::vector<int32_t> listed_tris_;  // sorted triples, flattened
   Candidate* cand_ = nullptr;         // two scratch candidates (current, best)

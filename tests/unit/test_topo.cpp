@@ -494,3 +494,61 @@ TEST(Topo, HingeRawRealMesh) {
     if (must) { EXPECT_GT(b.alpha_worst_after, a.alpha_worst_before); }
   }
 }
+
+TEST(Topo, FinishKeepsClassificationWithoutReclassifying) {
+  // finish() no longer re-runs classify(): the masks and kinds it compacts
+  // must equal what classify() computes from scratch (two regions, so
+  // interfaces are constrained; listed triangles from the generator).
+  for (int regions : {1, 2}) {
+    SCOPED_TRACE(regions);
+    BoxMeshOptions bo;
+    bo.nx = 5; bo.ny = 4; bo.nz = 4;
+    bo.jitter = 0.45;
+    bo.seed = 5;
+    bo.regions = regions;
+    TetMesh m = make_box_mesh(bo);
+    ASSERT_TRUE(build_topology(m).ok());
+    const Snapshot s = snap(m);
+    TopoOptions o;
+    o.quality_threshold = 0.5;
+    const TopoStats st = flip_pass(m, o);
+    ASSERT_GT(st.applied(), 0);
+    const std::vector<uint8_t> mask = m.face_mask, kind = m.tet_kind, vc = m.vert_constrained;
+    const std::vector<int32_t> off = m.vt_offsets, vt = m.vt_tets;
+    classify(m);
+    EXPECT_EQ(mask, m.face_mask);
+    EXPECT_EQ(kind, m.tet_kind);
+    EXPECT_EQ(vc, m.vert_constrained);
+    build_vertex_tets(m);
+    EXPECT_EQ(off, m.vt_offsets);
+    EXPECT_EQ(vt, m.vt_tets);
+    expect_invariants(s, m);
+  }
+}
+
+TEST(Topo, LaterPassesVisitOnlyChangedNeighbourhoods) {
+  // Pass 2 visits only poor tets next to a pass-1 change, so it visits fewer
+  // tets than pass 1 did, yet a pass that applies nothing still ends the loop
+  // with the same result as visiting everything would.
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 6;
+  bo.jitter = 0.45;
+  bo.seed = 9;
+  TetMesh m = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(m).ok());
+  std::vector<int64_t> visited;
+  TopoOptions o;
+  o.quality_threshold = 0.4;
+  o.passes = 10;
+  const TopoStats st = flip_pass(m, o, [&](LogLevel, const std::string& s) {
+    const auto k = s.find(": ");
+    if (k != std::string::npos) visited.push_back(std::stoll(s.substr(k + 2)));
+  });
+  ASSERT_GE(visited.size(), 2u);
+  EXPECT_LT(visited[1], visited[0]);
+  // A fresh pass over every poor tet of the result finds nothing more.
+  TopoOptions o1 = o;
+  o1.passes = 1;
+  const TopoStats again = flip_pass(m, o1);
+  EXPECT_EQ(again.applied(), 0) << st.applied();
+}
