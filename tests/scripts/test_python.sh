@@ -29,13 +29,16 @@ if [ -z "$so" ]; then
 fi
 
 # A sanitizer build (TETOPT_SANITIZE) instruments the module too: the ASan
-# runtime must then be loaded first into the uninstrumented interpreter, and
-# CPython's own allocations are not ours to report as leaks.
+# runtime must then be loaded first into the uninstrumented interpreter,
+# with libstdc++ (else ASan cannot intercept __cxa_throw and aborts on the
+# first C++ exception), and CPython's own allocations are not ours to report
+# as leaks.
 if ldd "$so" 2>/dev/null | grep -q libasan; then
   asan=$(ldd "$so" | awk '/libasan/ {print $3}')
-  export LD_PRELOAD="$asan${LD_PRELOAD:+:$LD_PRELOAD}"
+  stdcxx=$(ldd "$so" | awk '/libstdc\+\+/ {print $3}')
+  export LD_PRELOAD="$asan${stdcxx:+:$stdcxx}${LD_PRELOAD:+:$LD_PRELOAD}"
   export ASAN_OPTIONS="detect_leaks=0${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
-  echo "note: sanitizer build, preloading $asan"
+  echo "note: sanitizer build, preloading $LD_PRELOAD"
 fi
 
 # The module imported must be the one in this build tree.
