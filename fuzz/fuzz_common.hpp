@@ -27,8 +27,9 @@ inline constexpr int32_t kMaxTets = 20000;
 
 /// The steps read_mesh performs after parsing.  Returns false when the mesh
 /// is (rightly) rejected.
-inline bool finish_read(tetopt::TetMesh& m) {
+inline bool finish_read(tetopt::TetMesh& m, tetopt::Format f) {
   using namespace tetopt;
+  m.source_format = static_cast<int>(f);
   if (m.vert_ref.empty()) m.vert_ref.assign(m.nv(), 0);
   if (m.tet_ref.empty()) m.tet_ref.assign(m.nt(), 0);
   if (m.tri_ref.size() < static_cast<size_t>(m.ntri())) m.tri_ref.resize(m.ntri(), 0);

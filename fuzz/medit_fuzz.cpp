@@ -6,13 +6,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   TetMesh m;
   const std::string_view in(reinterpret_cast<const char*>(data), size);
   if (!parse_medit(in, "fuzz", m)) return 0;
-  if (!tetopt_fuzz::finish_read(m)) return 0;
+  if (!tetopt_fuzz::finish_read(m, Format::Medit)) return 0;
   tetopt_fuzz::check_topology(m);
   std::string out;
   if (Status s = format_medit(m, out); !s) tetopt_fuzz::die("writer refused an accepted mesh:", s.message);
   TetMesh back;
   if (Status s = parse_medit(out, "fuzz-rt", back); !s) tetopt_fuzz::die("re-read of written mesh failed:", s.message);
-  if (!tetopt_fuzz::finish_read(back)) tetopt_fuzz::die("re-read mesh rejected");
+  if (!tetopt_fuzz::finish_read(back, Format::Medit)) tetopt_fuzz::die("re-read mesh rejected");
   tetopt_fuzz::same_or_die(m, back, "medit");
   return 0;
 }

@@ -21,20 +21,20 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
     -DTETOPT_BUILD_TESTS=OFF -DTETOPT_BUILD_BENCH=OFF -DTETOPT_BUILD_PYTHON=OFF > /dev/null || exit 2
 fi
 tlist=""; for t in $targets; do tlist="$tlist ${t}_fuzz"; done
-cmake --build "$build" -j "${FUZZ_JOBS:-2}" --target $tlist || exit 2
+cmake --build "$build" -j "${FUZZ_JOBS:-2}" --target $tlist > "$build/fuzz-build.log" 2>&1 || { tail -30 "$build/fuzz-build.log" >&2; exit 2; }
 mkdir -p "$build/artifacts"
 status=0
 for t in $targets; do
   work="$build/corpus/$t"; seeds="$here/corpus/$t"
   mkdir -p "$work" "$seeds"
   echo "== fuzz $t for ${secs}s"
-  "$build/${t}_fuzz" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
+  "$build/fuzz/${t}_fuzz" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
       -artifact_prefix="$build/artifacts/${t}-" -print_final_stats=1 "$work" "$seeds" 2>&1 |
     grep -E "^(#[0-9]+ +DONE|==[0-9]+==ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|Test unit written|runtime error" 
   rc=${PIPESTATUS[0]}
   if [ "$rc" -ne 0 ]; then echo "fuzz $t: FAILED (exit $rc), see $build/artifacts/" >&2; status=1; fi
   if [ "${FUZZ_MERGE:-0}" = 1 ]; then
-    "$build/${t}_fuzz" -merge=1 -max_len=8192 "$seeds" "$work" > /dev/null 2>&1
+    "$build/fuzz/${t}_fuzz" -merge=1 -max_len=8192 "$seeds" "$work" > /dev/null 2>&1
   fi
 done
 exit $status

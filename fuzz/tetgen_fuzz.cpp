@@ -13,14 +13,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view face = b == std::string_view::npos ? std::string_view{} : in.substr(b + 1);
   TetMesh m;
   if (!parse_tetgen(node, ele, face, "fuzz", m)) return 0;
-  if (!tetopt_fuzz::finish_read(m)) return 0;
+  if (!tetopt_fuzz::finish_read(m, Format::TetGen)) return 0;
   tetopt_fuzz::check_topology(m);
   std::string n2, e2, f2;
   if (Status s = format_tetgen(m, n2, e2, f2); !s) tetopt_fuzz::die("writer refused an accepted mesh:", s.message);
   TetMesh back;
   if (Status s = parse_tetgen(n2, e2, f2, "fuzz-rt", back); !s)
     tetopt_fuzz::die("re-read of written mesh failed:", s.message);
-  if (!tetopt_fuzz::finish_read(back)) tetopt_fuzz::die("re-read mesh rejected");
+  if (!tetopt_fuzz::finish_read(back, Format::TetGen)) tetopt_fuzz::die("re-read mesh rejected");
   tetopt_fuzz::same_or_die(m, back, "tetgen");
   return 0;
 }

@@ -629,3 +629,116 @@ TEST_F(Hostile, CliTangledInputIsNotAnInvariantFailure) {
     EXPECT_LE(nonpositive_tets(back).size(), nonpositive_tets(m).size());
   }
 }
+
+// ------------------------------------------------- fuzz findings replayed
+
+namespace {
+
+// What read_mesh does after a parse (fuzz/fuzz_common.hpp mirrors this).
+bool finish_read(TetMesh& m, Format f) {
+  m.source_format = static_cast<int>(f);
+  if (m.vert_ref.empty()) m.vert_ref.assign(m.nv(), 0);
+  if (m.tet_ref.empty()) m.tet_ref.assign(m.nt(), 0);
+  if (m.tri_ref.size() < static_cast<size_t>(m.ntri())) m.tri_ref.resize(m.ntri(), 0);
+  if (m.edge_ref.size() < m.edges.size() / 2) m.edge_ref.resize(m.edges.size() / 2, 0);
+  if (!check_arrays(m, "replay")) return false;
+  normalize_orientation(m);
+  return true;
+}
+
+Status parse_as(Format f, std::string_view bytes, TetMesh& m) {
+  switch (f) {
+    case Format::Medit: return parse_medit(bytes, "replay", m);
+    case Format::MeditBinary: return parse_meditb(bytes, "replay", m);
+    case Format::Gmsh: return parse_gmsh(bytes, "replay", m);
+    case Format::Vtk: return parse_vtk(bytes, "replay", m);
+    case Format::Vtu: return parse_vtu(bytes, "replay", m);
+    case Format::TetGen: {
+      const size_t a = bytes.find('\0');
+      if (a == std::string_view::npos) return Status::error(ErrorCode::Parse, "no NUL separator");
+      const size_t b = bytes.find('\0', a + 1);
+      const std::string_view node = bytes.substr(0, a);
+      const std::string_view ele = bytes.substr(a + 1, b == std::string_view::npos ? std::string_view::npos : b - a - 1);
+      const std::string_view face = b == std::string_view::npos ? std::string_view{} : bytes.substr(b + 1);
+      return parse_tetgen(node, ele, face, "replay", m);
+    }
+    default: return Status::error(ErrorCode::Unsupported, "format");
+  }
+}
+
+Status format_as(Format f, const TetMesh& m, std::string& out) {
+  switch (f) {
+    case Format::Medit: return format_medit(m, out);
+    case Format::MeditBinary: return format_meditb(m, out, 3);
+    case Format::Gmsh: return format_gmsh(m, out, 41, false);
+    case Format::Vtk: return format_vtk(m, out, false);
+    case Format::Vtu: return format_vtu(m, out);
+    case Format::TetGen: {
+      std::string node, ele, face;
+      Status s = format_tetgen(m, node, ele, face);
+      out = node + std::string(1, '\0') + ele + std::string(1, '\0') + face;
+      return s;
+    }
+    default: return Status::error(ErrorCode::Unsupported, "format");
+  }
+}
+
+void replay(Format f, const std::string& bytes, const std::string& what) {
+  SCOPED_TRACE(what);
+  TetMesh m;
+  if (!parse_as(f, bytes, m)) return;  // a clean refusal is fine
+  if (!finish_read(m, f)) return;
+  {
+    TetMesh t = m;
+    const OrientationReport r = normalize_orientation(t);
+    if (build_topology(t)) {
+      EXPECT_TRUE(validate(t, ValidateLevel::Cheap));
+      if (r.inverted.empty() && r.flat_tets.empty()) {
+        EXPECT_TRUE(validate(t, ValidateLevel::Full));
+      }
+      EXPECT_TRUE(check_invariants(t, capture_invariants(t)));
+    }
+  }
+  std::string out;
+  ASSERT_TRUE(format_as(f, m, out));
+  TetMesh back;
+  ASSERT_TRUE(parse_as(f, out, back));
+  ASSERT_TRUE(finish_read(back, f));
+  ASSERT_EQ(m.xyz.size(), back.xyz.size());
+  EXPECT_EQ(std::memcmp(m.xyz.data(), back.xyz.data(), m.xyz.size() * sizeof(double)), 0);
+  EXPECT_EQ(m.tets, back.tets);
+  EXPECT_EQ(m.tet_ref, back.tet_ref);
+}
+
+}  // namespace
+
+TEST(Regression, FuzzFindingsReplay) {
+  const fs::path root = fs::path(TETOPT_SOURCE_DIR) / "tests" / "regression";
+  const std::pair<const char*, Format> dirs[] = {{"medit", Format::Medit}, {"meditb", Format::MeditBinary},
+                                                 {"gmsh", Format::Gmsh},   {"vtk", Format::Vtk},
+                                                 {"vtu", Format::Vtu},     {"tetgen", Format::TetGen}};
+  int files = 0;
+  for (const auto& [name, f] : dirs) {
+    if (!fs::exists(root / name)) continue;
+    for (const auto& e : fs::directory_iterator(root / name)) {
+      std::string bytes;
+      ASSERT_TRUE(read_file_bytes(e.path().string(), bytes));
+      replay(f, bytes, e.path().string());
+      ++files;
+    }
+  }
+  EXPECT_GT(files, 0);
+}
+
+TEST(Regression, TetGenOrientationTieRoundTrip) {
+  // Three positive and three negative tets: normalize_orientation keeps the
+  // tie as is, and a TetGen write / re-read must give the same tets back.
+  const std::string node = "8 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 1 1 0\n5 0 0 1\n6 1 3 4\n7 3 7 8\n8 1 1 10\n";
+  const std::string ele = "6 4 0\n1 1 2 8 4\n2 1 2 6 8\n3 2 3 8 4\n4 1 3 7 8\n5 1 5 6 8\n6 1 5 8 7\n";
+  replay(Format::TetGen, node + std::string(1, '\0') + ele, "tie");
+  TetMesh m;
+  ASSERT_TRUE(parse_tetgen(node, ele, "", "tie", m));
+  ASSERT_TRUE(finish_read(m, Format::TetGen));
+  const OrientationReport r = normalize_orientation(m);
+  EXPECT_EQ(r.positive, r.negative);
+}
