@@ -103,7 +103,10 @@ TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : m_(m), o_(o) {
   o_.max_shell = std::clamp(o_.max_shell, 3, kMaxShell);
   const int32_t nt = m_.nt();
   alpha_.resize(nt);
-  for (int32_t t = 0; t < nt; ++t) alpha_[t] = tet_alpha(m_, t);
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t* v = m_.tet(t);
+    alpha_[t] = quality(m_.point(v[0]), m_.point(v[1]), m_.point(v[2]), m_.point(v[3]));
+  }
   for (int32_t i = 0; i + 1 < static_cast<int32_t>(m_.edges.size()); i += 2)
     listed_edges_.push_back(edge_key(m_.edges[i], m_.edges[i + 1]));
   std::sort(listed_edges_.begin(), listed_edges_.end());
@@ -128,6 +131,23 @@ TopoEditor::~TopoEditor() {
   finish();
   delete cand_;
   delete best_;
+}
+
+double TopoEditor::quality(const double* a, const double* b, const double* c, const double* d) const {
+  if (o_.measure == TopoMeasure::Alpha) {
+    const double q = alpha(a, b, c, d);
+    return q < o_.alpha_floor ? -kInf : q;
+  }
+  // Dihedral measure: min over the six angles of theta / lo (small angles)
+  // or (180 - theta) / (180 - hi) (large angles); 1 when the extremes sit
+  // exactly at the targets.  Tets below the alpha floor count as -inf, so a
+  // dihedral pass never lowers the mesh's worst alpha.
+  if (alpha(a, b, c, d) < o_.alpha_floor || tet_signed_volume(a, b, c, d) <= 0) return -kInf;
+  double deg[6];
+  dihedral_angles(a, b, c, d, deg);
+  double q = kInf;
+  for (double x : deg) q = std::min({q, x / o_.dihedral_lo, (180.0 - x) / (180.0 - o_.dihedral_hi)});
+  return q;
 }
 
 bool TopoEditor::alive(int32_t t) const {
@@ -224,9 +244,9 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
         const double* pi = m_.point(ring[i]);
         const double* pk = m_.point(ring[k]);
         const double* pj = m_.point(ring[j]);
-        v = std::min(v, alpha(pi, pk, pj, pb));
+        v = std::min(v, quality(pi, pk, pj, pb));
         if (v <= best) continue;
-        v = std::min(v, alpha(pi, pj, pk, pa));
+        v = std::min(v, quality(pi, pj, pk, pa));
         if (v > best) {
           best = v;
           bk = k;
@@ -342,7 +362,7 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
     r.best = kInf;
     for (int e = 0; e < 3; ++e) {
       if (e == r.parent_edge) continue;
-      const double stop = alpha(pa, pb, m_.point(r.v[e]), m_.point(r.v[(e + 1) % 3]));
+      const double stop = quality(pa, pb, m_.point(r.v[e]), m_.point(r.v[(e + 1) % 3]));
       double v = stop;
       if (r.child[e] >= 0 && tri[r.child[e]].best > stop) {
         v = tri[r.child[e]].best;
@@ -413,7 +433,7 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) {
     const bool k4 = (m_.vert_constrained[q[0]] + m_.vert_constrained[q[1]] + m_.vert_constrained[q[2]] +
                      m_.vert_constrained[q[3]]) == 4;
     c.k4_new += k4;
-    c.new_alpha[i] = alpha(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]));
+    c.new_alpha[i] = quality(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]));
     worst = std::min(worst, c.new_alpha[i]);
     if (k4) worst_k4 = std::min(worst_k4, c.new_alpha[i]);
   }
@@ -819,6 +839,131 @@ TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o, const LogFn
 
 TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   return run_passes(m, o, log, PassKind::Quality);
+}
+
+namespace {
+
+// Dihedral measure of the star of free vertex v with v at x (-inf when a tet
+// falls below the alpha floor or is flat / inverted in floating point).
+double star_quality(const TetMesh& m, const TopoEditor& q, int32_t v, const double x[3]) {
+  double w = kInf;
+  for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+    const int32_t* tv = m.tet(*it);
+    const double* p[4];
+    for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? x : m.point(tv[k]);
+    w = std::min(w, q.quality(p[0], p[1], p[2], p[3]));
+    if (w == -kInf) break;
+  }
+  return w;
+}
+
+// Compass (pattern) search on the position of free vertex v maximising the
+// star's worst dihedral measure (derivative free: the measure is a nonsmooth
+// min of angles).  Commits only when every star tet stays exactly positive.
+bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
+  if (m.vert_constrained[v] || m.star_begin(v) == m.star_end(v)) return false;
+  double x[3] = {m.point(v)[0], m.point(v)[1], m.point(v)[2]};
+  const double f0 = star_quality(m, q, v, x);
+  if (!(f0 > -kInf)) return false;
+  double len = 0;
+  int ne = 0;
+  for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it)
+    for (int k = 0; k < 4; ++k) {
+      const int32_t u = m.tet(*it)[k];
+      if (u == v) continue;
+      const double* p = m.point(u);
+      len += std::sqrt((p[0] - x[0]) * (p[0] - x[0]) + (p[1] - x[1]) * (p[1] - x[1]) + (p[2] - x[2]) * (p[2] - x[2]));
+      ++ne;
+    }
+  double h = 0.1 * len / ne;
+  const double hmin = 1e-4 * len / ne;
+  static constexpr double kDir[14][3] = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},   {0, -1, 0},  {0, 0, 1},
+                                         {0, 0, -1}, {1, 1, 1},  {-1, -1, -1}, {1, -1, 1}, {-1, 1, -1},
+                                         {1, 1, -1}, {-1, -1, 1}, {-1, 1, 1},  {1, -1, -1}};
+  double f = f0;
+  for (int evals = 0; h > hmin && evals < 200;) {
+    bool moved = false;
+    for (const auto& d : kDir) {
+      const double s = (&d - kDir) < 6 ? h : h * 0.57735026918962584;
+      const double y[3] = {x[0] + s * d[0], x[1] + s * d[1], x[2] + s * d[2]};
+      const double fy = star_quality(m, q, v, y);
+      ++evals;
+      if (fy > f * (1 + 1e-9) + 1e-12) {
+        f = fy;
+        x[0] = y[0]; x[1] = y[1]; x[2] = y[2];
+        moved = true;
+        break;
+      }
+    }
+    if (!moved) h *= 0.5;
+  }
+  if (!(f > f0)) return false;
+  const double old[3] = {m.point(v)[0], m.point(v)[1], m.point(v)[2]};
+  std::copy(x, x + 3, m.point(v));
+  for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+    const int32_t* tv = m.tet(*it);
+    if (orient3d(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3])) != Sign::Positive) {
+      std::copy(old, old + 3, m.point(v));
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TopoOptions d = o;
+  d.measure = TopoMeasure::Dihedral;
+  double worst = kInf;
+  for (int32_t t = 0; t < m.nt(); ++t) worst = std::min(worst, tet_alpha(m, t));
+  // Default floor: the current worst alpha (never lowered).  A caller may
+  // trade some worst alpha for angles by giving a lower floor explicitly.
+  if (!(d.alpha_floor > -1e300)) d.alpha_floor = worst;
+  TopoStats total;
+  int64_t moves = 0;
+  for (int round = 0; round < std::max(1, d.passes); ++round) {
+    TopoStats st = run_passes(m, d, log, PassKind::Quality);
+    if (!st.status) return st;
+    if (round == 0) {
+      total = st;
+    } else {
+      total.flip23 += st.flip23; total.flip32 += st.flip32; total.flip44 += st.flip44;
+      total.edge_removals += st.edge_removals; total.multi_face_removals += st.multi_face_removals;
+      total.passes += st.passes;
+      total.alpha_worst_after = st.alpha_worst_after;
+      total.tets_after = st.tets_after;
+    }
+    // Relocate the free vertices of tets still below the threshold.
+    int64_t moved = 0;
+    {
+      TopoEditor q(m, d);  // measure evaluator (no edits: finish() is a no-op)
+      std::vector<uint8_t> seen(m.nv(), 0);
+      for (int32_t t = 0; t < m.nt(); ++t) {
+        if (!(q.cached_alpha(t) < d.quality_threshold)) continue;
+        for (int k = 0; k < 4; ++k) {
+          const int32_t v = m.tet(t)[k];
+          if (seen[v]) continue;
+          seen[v] = 1;
+          moved += relocate_vertex(m, q, v);
+        }
+      }
+    }
+    moves += moved;
+    if (log)
+      log(LogLevel::Info, "topo dihedral round " + std::to_string(round + 1) + ": " + std::to_string(st.applied()) +
+                              " flips, " + std::to_string(moved) + " vertex moves");
+    if (moved == 0 && st.applied() == 0) break;
+  }
+  {
+    TopoEditor q(m, d);
+    total.alpha_worst_after = kInf;
+    for (int32_t t = 0; t < m.nt(); ++t) total.alpha_worst_after = std::min(total.alpha_worst_after, q.cached_alpha(t));
+  }
+  total.vertex_moves = moves;
+  total.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return total;
 }
 
 }  // namespace tetopt

@@ -84,8 +84,22 @@ const char* to_string(TopoResult r);
 /// Largest shell / ring size any operation accepts (capacity of the scratch).
 inline constexpr int kMaxShell = 16;
 
+/// What the operations maximise (the worst value over a cavity's new tets).
+enum class TopoMeasure {
+  Alpha,     ///< alpha (quality.hpp), the default
+  Dihedral,  ///< min over the six dihedral angles of min(theta/dihedral_lo, (180-theta)/(180-dihedral_hi))
+};
+
 /// Policy and limits of the topological operations.
 struct TopoOptions {
+  /// Quality measure the operations and the threshold refer to.
+  TopoMeasure measure = TopoMeasure::Alpha;
+  /// A new tet with alpha below this counts as unacceptable (-inf) whatever
+  /// the measure: set it to the mesh's worst alpha to make a dihedral pass
+  /// that never lowers the worst alpha.
+  double alpha_floor = -1e300;
+  double dihedral_lo = 30.0;   ///< Dihedral measure: target smallest angle (degrees)
+  double dihedral_hi = 140.0;  ///< Dihedral measure: target largest angle (degrees)
   /// An operation "improves" when the worst alpha of the new tets exceeds the
   /// worst alpha of the tets it replaces by more than this margin; the margin
   /// stops passes from cycling.
@@ -123,6 +137,7 @@ struct TopoStats {
   int64_t kind4_before = 0, kind4_after = 0;  ///< kind-4 tets before / after the call
   double alpha_worst_before = 0, alpha_worst_after = 0;  ///< over all tets
   int64_t tets_before = 0, tets_after = 0;
+  int64_t vertex_moves = 0;         ///< dihedral_pass: free vertices relocated
   int passes = 0;
   double seconds = 0;
   Status status;  ///< not ok when the topology could not be built
@@ -167,6 +182,9 @@ class TopoEditor {
   TopoResult improve_tet(int32_t t, bool strict);
 
   bool alive(int32_t t) const;      ///< t is a live tet (not a tombstone)
+  /// The option's measure of tet (a, b, c, d) (alpha by default), -inf below
+  /// TopoOptions::alpha_floor.  cached_alpha() holds this measure.
+  double quality(const double* a, const double* b, const double* c, const double* d) const;
   double cached_alpha(int32_t t) const { return alpha_[t]; }
   /// Starts a new change epoch and returns it: every commit stamps the
   /// vertices of its new tets with the current epoch.
@@ -221,6 +239,21 @@ TopoResult remove_multi_face(TetMesh& m, int32_t t, int lf, const TopoOptions& o
 /// with alpha below o.quality_threshold, in index order, repeated for o.passes passes or until a pass changes nothing.  Builds the
 /// topology first if it is missing.  Policy: o.must_improve / worsen_bound.
 TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o = {}, const LogFn& log = {});
+
+/// Dihedral pass: up to o.passes rounds of (flip_pass with o.measure =
+/// Dihedral and, when o.alpha_floor is left at its default, alpha_floor = the
+/// mesh's current worst alpha; an explicit floor trades worst alpha down to
+/// it for angles) then relocation of the free vertices of tets
+/// still below o.quality_threshold (compass search maximising the star's
+/// worst dihedral measure, exact orient3d before commit), until a round
+/// changes nothing.  The measure is 1 when a tet's extreme angles sit at
+/// dihedral_lo / dihedral_hi, so a threshold of 1 visits every tet short of
+/// the targets.  Raises the smallest / lowers the largest dihedral angles and
+/// never lowers the worst alpha (every new or moved tet keeps alpha >= the
+/// floor, by default the worst alpha before the pass); constrained vertices and faces are untouched.  Stats' alpha fields
+/// hold the dihedral measure; vertex_moves counts relocations.  Requires the
+/// topology (builds it if missing).
+TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o = {}, const LogFn& log = {});
 
 /// Quality-driven pass: for every tet with alpha below o.quality_threshold
 /// (index order), commits the best operation touching it that raises the
