@@ -5,6 +5,7 @@
 #   FUZZ_MERGE=1   merge the new interesting inputs into fuzz/corpus/TARGET
 #                  (minimised with -merge=1; keep the committed corpus < 2 MB)
 #   FUZZ_JOBS=N    build parallelism (default 2)
+#   FUZZ_NOBUILD=1 run the targets already built in build-fuzz
 # New inputs found during a run go to build-fuzz/corpus/TARGET (not committed);
 # crashes go to build-fuzz/artifacts/ and make the script exit 1.  Every
 # crash must become a regression test (tests/regression/, test_hostile.cpp).
@@ -21,7 +22,7 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
     -DTETOPT_BUILD_TESTS=OFF -DTETOPT_BUILD_BENCH=OFF -DTETOPT_BUILD_PYTHON=OFF > /dev/null || exit 2
 fi
 tlist=""; for t in $targets; do tlist="$tlist ${t}_fuzz"; done
-cmake --build "$build" -j "${FUZZ_JOBS:-2}" --target $tlist > "$build/fuzz-build.log" 2>&1 || { tail -30 "$build/fuzz-build.log" >&2; exit 2; }
+[ "${FUZZ_NOBUILD:-0}" = 1 ] || cmake --build "$build" -j "${FUZZ_JOBS:-2}" --target $tlist > "$build/fuzz-build.log" 2>&1 || { tail -30 "$build/fuzz-build.log" >&2; exit 2; }
 mkdir -p "$build/artifacts"
 status=0
 for t in $targets; do
