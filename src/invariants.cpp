@@ -33,11 +33,39 @@ std::vector<std::array<int32_t, 5>> constrained_faces(const TetMesh& m) {
 }
 }  // namespace
 
+namespace {
+// True when orient3d(a,b,c,d) is certainly Positive: the floating-point
+// determinant exceeds Shewchuk's static error bound for orient3d
+// (o3derrboundA = (7 + 56 eps) eps times the permanent; Shewchuk 1997,
+// "Adaptive precision floating-point arithmetic and fast robust geometric
+// predicates").  Undecided cases go to the exact predicate, so the answer is
+// always exact; the filter only makes the common case cheap (the check must
+// cost little next to the run).
+bool surely_positive(const double* a, const double* b, const double* c, const double* d) {
+  const double adx = a[0] - d[0], bdx = b[0] - d[0], cdx = c[0] - d[0];
+  const double ady = a[1] - d[1], bdy = b[1] - d[1], cdy = c[1] - d[1];
+  const double adz = a[2] - d[2], bdz = b[2] - d[2], cdz = c[2] - d[2];
+  const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+  const double cdxady = cdx * ady, adxcdy = adx * cdy;
+  const double adxbdy = adx * bdy, bdxady = bdx * ady;
+  // det[a-d; b-d; c-d] = -det[b-a; c-a; d-a] (orient3d's sign convention).
+  const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+  const double perm = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
+                      (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
+                      (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
+  constexpr double eps = 1.1102230246251565e-16;  // 2^-53
+  constexpr double bound = (7.0 + 56.0 * eps) * eps;
+  return -det > bound * perm;
+}
+}  // namespace
+
 std::vector<int32_t> nonpositive_tets(const TetMesh& m) {
   std::vector<int32_t> out;
   for (int32_t t = 0; t < m.nt(); ++t) {
     const int32_t* v = m.tet(t);
-    if (orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])) != Sign::Positive) out.push_back(t);
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
+    if (surely_positive(a, b, c, d)) continue;
+    if (orient3d(a, b, c, d) != Sign::Positive) out.push_back(t);
   }
   return out;
 }
