@@ -80,7 +80,7 @@ const char* to_string(TopoResult r) {
 
 // A planned operation: the cavity, the new tets and how their faces connect.
 struct TopoEditor::Candidate {
-  enum Kind { Edge, Multi } kind = Edge;
+  enum Kind { Edge, Multi, Insert } kind = Edge;
   int size = 0;  // shell size n (Edge) or number of removed faces m (Multi)
   int n_old = 0;
   int32_t old_tets[kMaxOld];
@@ -596,7 +596,9 @@ void TopoEditor::commit(const Candidate& c) {
 }
 
 void TopoEditor::count(const Candidate& c) {
-  if (c.kind == Candidate::Edge) {
+  if (c.kind == Candidate::Insert) {
+    ++stats_.insertions;
+  } else if (c.kind == Candidate::Edge) {
     if (c.size == 3) ++stats_.flip32;
     else if (c.size == 4) ++stats_.flip44;
     else ++stats_.edge_removals;
@@ -643,6 +645,140 @@ TopoResult TopoEditor::remove_multi_face(int32_t t, int lf) {
   TopoResult r = plan_multi(t, lf, o_.max_shell - 2, false, *cand_);
   if (r == TopoResult::Applied) commit(*cand_);
   return r;
+}
+
+TopoResult TopoEditor::insert_vertex(int32_t t) {
+  if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
+  Candidate& c = *cand_;
+  c.kind = Candidate::Insert;
+  c.size = 1;
+  c.ref = m_.tet_ref[t];
+  const bool has_entity = !m_.tet_entity.empty();
+  c.entity = has_entity ? m_.tet_entity[t] : 0;
+  int32_t nbs[4];
+  int nn = 0;
+  for (int f = 0; f < 4; ++f) {
+    const int32_t nb = m_.adj[4 * static_cast<size_t>(t) + f];
+    if (nb < 0 || ((m_.face_mask[t] >> f) & 1u)) continue;
+    const int32_t o = nb / 4;
+    if (m_.tet_ref[o] != c.ref || (has_entity && m_.tet_entity[o] != c.entity)) continue;
+    nbs[nn++] = o;
+  }
+  // Every subset of the free-face neighbours joins t in a candidate cavity;
+  // the best fan (highest worst alpha after the position search) wins.
+  int nf = 0, best_nf = 0;
+  int32_t face[kMaxOuter][3], best_face[kMaxOuter][3];
+  int32_t best_old[5];
+  int best_nold = 0;
+  double best_x[3] = {0, 0, 0}, best_f = -kInf;
+  auto fan = [&](const double* p) {
+    double w = kInf;
+    for (int i = 0; i < nf && w > -kInf; ++i)
+      w = std::min(w, quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p));
+    return w;
+  };
+  for (int mask = 0; mask < (1 << nn); ++mask) {
+    int32_t old[5];
+    int nold = 0;
+    old[nold++] = t;
+    for (int i = 0; i < nn; ++i)
+      if ((mask >> i) & 1) old[nold++] = nbs[i];
+    nf = 0;
+    double centre[3] = {0, 0, 0};
+    int ncentre = 0;
+    for (int i = 0; i < nold; ++i) {
+      const int32_t o = old[i];
+      const int32_t* tv = m_.tet(o);
+      for (int f = 0; f < 4; ++f) {
+        const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+        bool inside = false;
+        for (int j = 0; j < nold && nb >= 0 && !inside; ++j) inside = old[j] == nb / 4;
+        if (inside) continue;
+        for (int k = 0; k < 3; ++k) {
+          face[nf][k] = tv[kFaceVertex[f][k]];
+          const double* p = m_.point(face[nf][k]);
+          centre[0] += p[0]; centre[1] += p[1]; centre[2] += p[2];
+          ++ncentre;
+        }
+        ++nf;
+      }
+    }
+    for (double& x : centre) x /= ncentre;
+    // Compass search from the centre of the cavity's outer vertices.
+    double x[3] = {centre[0], centre[1], centre[2]};
+    double fx = fan(x);
+    double len = 0;
+    for (int i = 0; i < nf; ++i) {
+      const double* a = m_.point(face[i][0]);
+      len += std::sqrt((a[0] - x[0]) * (a[0] - x[0]) + (a[1] - x[1]) * (a[1] - x[1]) + (a[2] - x[2]) * (a[2] - x[2]));
+    }
+    double h = 0.2 * len / nf;
+    const double hmin = 1e-4 * len / nf;
+    static constexpr double kDir[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int evals = 0; h > hmin && evals < 300;) {
+      bool moved = false;
+      for (const auto& d : kDir) {
+        const double y[3] = {x[0] + h * d[0], x[1] + h * d[1], x[2] + h * d[2]};
+        const double fy = fan(y);
+        ++evals;
+        if (fy > fx) {
+          fx = fy;
+          std::copy(y, y + 3, x);
+          moved = true;
+          break;
+        }
+      }
+      if (!moved) h *= 0.5;
+    }
+    if (fx > best_f) {
+      best_f = fx;
+      std::copy(x, x + 3, best_x);
+      best_nf = nf;
+      std::copy(&face[0][0], &face[0][0] + 3 * nf, &best_face[0][0]);
+      best_nold = nold;
+      std::copy(old, old + nold, best_old);
+    }
+  }
+  c.n_old = best_nold;
+  c.old_min = kInf;
+  c.k4_old = 0;
+  for (int i = 0; i < c.n_old; ++i) {
+    c.old_tets[i] = best_old[i];
+    c.old_min = std::min(c.old_min, alpha_[c.old_tets[i]]);
+    c.k4_old += m_.tet_kind[c.old_tets[i]] == 4;
+  }
+  nf = best_nf;
+  std::copy(&best_face[0][0], &best_face[0][0] + 3 * nf, &face[0][0]);
+  double* x = best_x;
+  const double fx = best_f;
+  if (!(fx > c.old_min + o_.margin)) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
+  // Append the vertex (existing ids unchanged), plan, and take it back if the
+  // plan fails.
+  const int32_t nv = m_.nv();
+  const bool has_vref = m_.vert_ref.size() == static_cast<size_t>(nv);
+  m_.xyz.insert(m_.xyz.end(), x, x + 3);
+  if (has_vref) m_.vert_ref.push_back(0);
+  m_.vert_constrained.push_back(0);
+  for (auto& pf : m_.point_fields) pf.values.insert(pf.values.end(), pf.components, 0.0);
+  vstamp_.push_back(0);
+  c.n_new = nf;
+  for (int i = 0; i < nf; ++i) {
+    c.quad[i][0] = face[i][0];
+    c.quad[i][1] = face[i][2];
+    c.quad[i][2] = face[i][1];
+    c.quad[i][3] = nv;
+  }
+  const TopoResult r = finish_plan(true, c);
+  if (r != TopoResult::Applied) {
+    m_.xyz.resize(3 * static_cast<size_t>(nv));
+    if (has_vref) m_.vert_ref.pop_back();
+    m_.vert_constrained.pop_back();
+    for (auto& pf : m_.point_fields) pf.values.resize(pf.values.size() - pf.components);
+    vstamp_.pop_back();
+    return r;
+  }
+  commit(c);
+  return TopoResult::Applied;
 }
 
 TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {

@@ -133,6 +133,7 @@ struct TopoStats {
   int64_t edge_removals = 0;        ///< edge removals with n >= 5
   int64_t multi_face_removals = 0;  ///< multi-face removals of two or more faces
   int64_t flip22 = 0;               ///< always 0 (see flip_22)
+  int64_t insertions = 0;           ///< vertices inserted (insert_vertex)
   int64_t all_boundary_removed = 0; ///< operations that removed a kind-4 tet they were aimed at
   int64_t kind4_before = 0, kind4_after = 0;  ///< kind-4 tets before / after the call
   double alpha_worst_before = 0, alpha_worst_after = 0;  ///< over all tets
@@ -141,7 +142,9 @@ struct TopoStats {
   int passes = 0;
   double seconds = 0;
   Status status;  ///< not ok when the topology could not be built
-  int64_t applied() const { return flip23 + flip32 + flip44 + edge_removals + multi_face_removals + flip22; }
+  int64_t applied() const {
+    return flip23 + flip32 + flip44 + edge_removals + multi_face_removals + flip22 + insertions;
+  }
 };
 
 /// A session of topological edits on one mesh.  Construction requires the
@@ -173,6 +176,15 @@ class TopoEditor {
   /// apex b = the neighbour's opposite vertex); 2-3 when one face is best.
   TopoResult remove_multi_face(int32_t t, int lf);
 
+  /// Vertex insertion (Klingner & Shewchuk 2007): the cavity is t plus its
+  /// neighbours across unconstrained faces of the same region; a new free
+  /// vertex (vert_ref 0, appended: existing ids unchanged) is placed by a
+  /// compass search maximising the worst alpha of the fan of new tets (new
+  /// vertex + each outer face of the cavity) and the fan replaces the cavity
+  /// when every new tet is exactly positive and the worst alpha rises by more
+  /// than the margin.  Constrained faces stay (they are outer faces).
+  /// Alpha measure only (NotApplicable otherwise).
+  TopoResult insert_vertex(int32_t t);
   /// Algorithm 4 of Liu et al. on one tet: tries edge removal on each of
   /// t's edges, face swaps and multi-face removals across its unconstrained
   /// faces, and commits the acceptable option with the best worst alpha
