@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <sstream>
 
+#include "tetopt/insert.hpp"
 #include "tetopt/invariants.hpp"
 #include "tetopt/relax.hpp"
 #include "tetopt/report.hpp"
@@ -164,6 +165,15 @@ class Driver {
       progress("round " + std::to_string(round + 1) + ": worst alpha " + std::to_string(prev_worst));
       if (Status s = algorithm4(true, gamma); !s) return s;
       if (Status s = flips(gamma); !s) return s;
+      if (o_.allow_insert) {
+        const auto t = Clock::now();
+        InsertOptions io;
+        io.quality_threshold = gamma;
+        const InsertStats is = insert_pass(m_, io, sub_log_);
+        r_.insertions += is.inserted;
+        r_.seconds_topo += since(t);
+        if (!is.status) return is.status;
+      }
       smooth(smooth_opts(gamma, 3, false, o_.seed + static_cast<uint64_t>(round)));
       smooth(smooth_opts(gamma, 3, true, o_.seed + static_cast<uint64_t>(round)));
       r_.rounds = round + 1;
@@ -175,6 +185,22 @@ class Driver {
         stale = 0;
       }
       prev_worst = std::max(prev_worst, w);
+    }
+    // Dihedral angles are a different objective from alpha: a last pass of
+    // flips and vertex relocations raises the smallest / lowers the largest
+    // angles of the poor tets, with the current worst alpha as a floor so it
+    // never undoes what the rounds reached.
+    if (!stopped()) {
+      const auto t = Clock::now();
+      TopoOptions d;
+      d.measure = TopoMeasure::Dihedral;
+      d.quality_threshold = 0.3;
+      d.passes = 2;
+      d.alpha_floor = worst_alpha(m_);
+      const TopoStats st = dihedral_pass(m_, d, sub_log_);
+      add(st, since(t));
+      r_.vertex_moves += st.vertex_moves;
+      if (!st.status) return st.status;
     }
     return Status::success();
   }
@@ -245,13 +271,14 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   j << "  \"options\": {\"mode\": \"" << mode_name(o.mode) << "\", \"optimizer\": \""
     << (o.maxmin_optimizer ? "maxmin" : "paper") << "\", \"weight\": " << num(o.weight)
     << ", \"threshold\": " << num(o.threshold) << ", \"iterations\": " << o.iterations << ", \"seed\": " << o.seed
-    << ", \"threads\": " << o.threads << "},\n";
+    << ", \"threads\": " << o.threads << ", \"allow_insert\": " << (o.allow_insert ? "true" : "false") << "},\n";
   j << "  \"before\": " << stats_to_json(r.before, 4) << ",\n";
   j << "  \"after\": " << stats_to_json(r.after, 4) << ",\n";
   j << "  \"operations\": {\"smoothing_moves\": " << r.smooth_moves << ", \"smoothing_tried\": " << r.smooth_tried
     << ", \"flip23\": " << r.flip23 << ", \"flip32\": " << r.flip32 << ", \"edge_removals\": " << r.edge_removals
     << ", \"multi_face_removals\": " << r.multi_face_removals << ", \"flip22\": " << r.flip22
     << ", \"flip44\": " << r.flip44 << ", \"all_boundary_removed\": " << r.all_boundary_removed
+    << ", \"insertions\": " << r.insertions << ", \"dihedral_vertex_moves\": " << r.vertex_moves
     << ", \"rounds\": " << r.rounds << "},\n";
   j << "  \"seconds\": {\"total\": " << num(r.seconds_total) << ", \"smoothing\": " << num(r.seconds_smooth)
     << ", \"topology\": " << num(r.seconds_topo) << ", \"invariant_check\": " << num(r.seconds_check) << "},\n";

@@ -51,6 +51,9 @@ static const char* kImproveHelp =
     "                       of alpha and dihedral angles, statistics, time per phase,\n"
     "                       operation counts, diagnosis, the boundary verdict\n"
     "  --msh-version V      22 or 41 for .msh output    --binary  binary .msh/.vtk\n"
+    "  --allow-insert       (mode best) may insert new free vertices inside the\n"
+    "                       volume; existing vertices keep their ids.  Off by default\n"
+    "                       because some users need the vertex set unchanged\n"
     "  --no-check           skip the final invariant proof (not recommended)\n"
     "  -q, --quiet          print nothing but errors    -v, --verbose  more detail\n"
     "\n"
@@ -90,6 +93,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     else if (a == "-v" || a == "--verbose") verbose = true;
     else if (a == "--binary") wo.binary = true;
     else if (a == "--no-check") opt.check_invariants = false;
+    else if (a == "--allow-insert") opt.allow_insert = true;
     else if (a == "--mode") {
       if (!value(v)) return kExitUsage;
       if (v == "smooth") opt.mode = ImproveMode::Smooth;
@@ -216,11 +220,12 @@ int cmd_improve(const std::vector<std::string>& args) {
     std::printf("%s -> %s (mode %s, C = %.2f)\n", in.c_str(), out.c_str(), mode_name(opt.mode), opt.weight);
     std::printf("%s", format_before_after(rep.before, rep.after, rep.seconds_total).c_str());
     std::printf("  operations: %lld smoothing moves, %lld 2-3, %lld 3-2, %lld edge removals, %lld multi-face "
-                "removals, %lld 2-2, %lld 4-4; %lld all-boundary tets removed; %d rounds\n",
+                "removals, %lld 2-2, %lld 4-4; %lld all-boundary tets removed; %lld vertices inserted; %d rounds\n",
                 static_cast<long long>(rep.smooth_moves), static_cast<long long>(rep.flip23),
                 static_cast<long long>(rep.flip32), static_cast<long long>(rep.edge_removals),
                 static_cast<long long>(rep.multi_face_removals), static_cast<long long>(rep.flip22),
-                static_cast<long long>(rep.flip44), static_cast<long long>(rep.all_boundary_removed), rep.rounds);
+                static_cast<long long>(rep.flip44), static_cast<long long>(rep.all_boundary_removed),
+                static_cast<long long>(rep.insertions), rep.rounds);
     std::printf("  time: smoothing %.3f s, topology %.3f s, invariant check %.3f s, end to end %.3f s\n",
                 rep.seconds_smooth, rep.seconds_topo, rep.seconds_check, total);
     std::printf("  boundary unchanged: %s\n",

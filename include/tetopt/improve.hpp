@@ -36,6 +36,10 @@ struct ImproveOptions {
   uint64_t seed = 0;              ///< visiting order
   int threads = 1;                ///< worker threads (results are identical for any count)
   bool check_invariants = true;   ///< prove the promise at the end (recommended)
+  /// Best mode: allow inserting new free vertices in cavities of poor tets
+  /// (appended after the existing ones, which keep their ids); off by default
+  /// because some users need the vertex set unchanged.
+  bool allow_insert = false;
 };
 
 /// What a run did.
@@ -44,6 +48,8 @@ struct ImproveReport {
   int64_t smooth_moves = 0, smooth_tried = 0;
   int64_t flip23 = 0, flip32 = 0, edge_removals = 0, multi_face_removals = 0, flip22 = 0, flip44 = 0;
   int64_t all_boundary_removed = 0;
+  int64_t insertions = 0;     ///< vertices inserted (allow_insert)
+  int64_t vertex_moves = 0;   ///< relocations by the final dihedral pass
   int rounds = 0;
   double seconds_total = 0, seconds_smooth = 0, seconds_topo = 0, seconds_check = 0;
   bool invariants_checked = false, invariants_ok = false;
