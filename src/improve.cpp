@@ -59,6 +59,7 @@ class Driver {
     so.iterations = sweeps;
     so.optimizer = maxmin ? Optimizer::MaxMin : Optimizer::Paper;
     so.seed = seed;
+    so.threads = o_.threads;
     return so;
   }
 
