@@ -13,6 +13,7 @@
 #include "tetopt/report.hpp"
 #include "tetopt/smooth.hpp"
 #include "tetopt/topo.hpp"
+#include "tetopt/untangle.hpp"
 
 namespace tetopt {
 
@@ -237,7 +238,23 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
   rep = ImproveReport{};
   rep.before = compute_stats(m);
   InvariantSnapshot snap;
-  if (opt.check_invariants) snap = capture_invariants(m);
+  if (opt.check_invariants) {
+    const auto tc = Clock::now();
+    snap = capture_invariants(m);
+    rep.seconds_check += since(tc);
+  }
+  // Inverted or flat input tets: untangle first by moving free vertices; the
+  // snapshot above was taken before, so the final check accepts only tets
+  // that were already non-positive in the input (invariants.hpp).
+  if (rep.before.inverted_or_flat > 0) {
+    const auto tu = Clock::now();
+    const UntangleStats u = untangle(m, log);
+    rep.smooth_moves += u.moves;
+    rep.seconds_smooth += since(tu);
+    rep.untangled = u.nonpositive_before - u.nonpositive_after;
+    rep.still_inverted = u.nonpositive_after;
+    if (!u.status) return u.status;
+  }
 
   if (opt.weight < 0.5 || opt.weight >= 1.0)
     return Status::error(ErrorCode::InvalidMesh, "improve: weight C must satisfy 0.5 <= C < 1");
@@ -247,7 +264,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
   if (opt.check_invariants) {
     const auto tc = Clock::now();
     Status s = check_invariants(m, snap);
-    rep.seconds_check = since(tc);
+    rep.seconds_check += since(tc);
     rep.invariants_checked = true;
     rep.invariants_ok = s.ok();
     rep.invariant_message = s.message;
@@ -279,6 +296,7 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
     << ", \"flip23\": " << r.flip23 << ", \"flip32\": " << r.flip32 << ", \"edge_removals\": " << r.edge_removals
     << ", \"multi_face_removals\": " << r.multi_face_removals << ", \"flip22\": " << r.flip22
     << ", \"flip44\": " << r.flip44 << ", \"all_boundary_removed\": " << r.all_boundary_removed
+    << ", \"untangled\": " << r.untangled << ", \"still_inverted\": " << r.still_inverted
     << ", \"insertions\": " << r.insertions << ", \"dihedral_vertex_moves\": " << r.vertex_moves
     << ", \"rounds\": " << r.rounds << "},\n";
   j << "  \"seconds\": {\"total\": " << num(r.seconds_total) << ", \"smoothing\": " << num(r.seconds_smooth)

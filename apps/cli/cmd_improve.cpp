@@ -226,6 +226,9 @@ int cmd_improve(const std::vector<std::string>& args) {
                 static_cast<long long>(rep.multi_face_removals), static_cast<long long>(rep.flip22),
                 static_cast<long long>(rep.flip44), static_cast<long long>(rep.all_boundary_removed),
                 static_cast<long long>(rep.insertions), rep.rounds);
+    if (rep.untangled > 0 || rep.still_inverted > 0)
+      std::printf("  untangling: %lld inverted or flat input tets made positive, %lld could not be (ids in the log)\n",
+                  static_cast<long long>(rep.untangled), static_cast<long long>(rep.still_inverted));
     std::printf("  time: smoothing %.3f s, topology %.3f s, invariant check %.3f s, end to end %.3f s\n",
                 rep.seconds_smooth, rep.seconds_topo, rep.seconds_check, total);
     std::printf("  boundary unchanged: %s\n",

@@ -49,9 +49,12 @@ struct ImproveReport {
   int64_t flip23 = 0, flip32 = 0, edge_removals = 0, multi_face_removals = 0, flip22 = 0, flip44 = 0;
   int64_t all_boundary_removed = 0;
   int64_t insertions = 0;     ///< vertices inserted (allow_insert)
+  int64_t untangled = 0;      ///< input tets that were inverted or flat and are now positive
+  int64_t still_inverted = 0; ///< input tets inverted or flat that untangling could not fix
   int64_t vertex_moves = 0;   ///< relocations by the final dihedral pass
   int rounds = 0;
-  double seconds_total = 0, seconds_smooth = 0, seconds_topo = 0, seconds_check = 0;
+  double seconds_total = 0, seconds_smooth = 0, seconds_topo = 0;
+  double seconds_check = 0;  ///< invariant snapshot + proof
   bool invariants_checked = false, invariants_ok = false;
   std::string invariant_message;
 };

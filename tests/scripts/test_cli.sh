@@ -50,6 +50,26 @@ check "quality --field writes a .vtu" 'grep -q "Name=\"alpha\"" "$W/q.vtu"'
 check "unwritable output exits 4" '[ $rc -eq 4 ]'
 check "no temporary files left" '[ -z "$(ls "$W" | grep tmp-)" ]'
 
+# A tangled input (one free vertex dragged through its neighbours): improve
+# untangles it, exits 0, and never makes the mesh worse.
+"$T" generate "$W/t.mesh" --cells 4 4 4 --seed 2
+/usr/bin/python3 - "$W/t.mesh" <<'PY'
+import sys
+p = sys.argv[1]; L = open(p).read().split("\n")
+i = L.index("Vertices") + 2
+# vertex (2,2,2) of the 5x5x5 grid is id 2*25+2*5+2 = 62 (0-based)
+x, y, z, r = L[i + 62].split()
+L[i + 62] = f"{float(x)+1.3} {y} {z} {r}"
+open(p, "w").write("\n".join(L))
+PY
+"$T" quality "$W/t.mesh" --json -q > "$W/tq.json" 2>/dev/null
+check "the tangled input has inverted tets" '/usr/bin/python3 -c "import json; assert json.load(open(\"$W/tq.json\"))[\"inverted_or_flat\"] > 0"'
+"$T" improve "$W/t.mesh" -o "$W/tu.mesh" --report "$W/tu.json" > "$W/tu.out" 2>&1; rc=$?
+check "tangled input: improve exits 0" '[ $rc -eq 0 ]'
+check "tangled input: every tet positive afterwards" '/usr/bin/python3 -c "
+import json; r=json.load(open(\"$W/tu.json\"))
+assert r[\"after\"][\"inverted_or_flat\"] == 0 and r[\"operations\"][\"untangled\"] > 0"'
+
 MC="$SRC/../shared/tools/meshcheck.py"
 if [ -f "$MC" ] && /usr/bin/python3 -c "import meshio" 2>/dev/null; then
   for mode in smooth topo combined best; do
