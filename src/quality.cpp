@@ -23,6 +23,13 @@ inline void cross(const double* a, const double* b, double* r) {
 inline double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 inline double norm(const double* a) { return std::sqrt(dot(a, a)); }
 const double kSixSqrt6 = 6.0 * std::sqrt(6.0);
+// cos(10 j degrees), j = 1..17, decreasing: histogram bin edges.
+const std::array<double, 17> kBinCos = [] {
+  std::array<double, 17> c{};
+  for (int j = 1; j <= 17; ++j) c[j - 1] = std::cos(10.0 * j * M_PI / 180.0);
+  return c;
+}();
+const double kCos5 = std::cos(5.0 * M_PI / 180.0), kCos175 = std::cos(175.0 * M_PI / 180.0);
 
 // Neumaier-compensated sum, so means over millions of tets stay exact to ~1e-15.
 struct Sum {
@@ -144,6 +151,8 @@ QualityStats compute_stats(const TetMesh& m) {
   s.mean_ratio_worst = s.radius_ratio_worst = INFINITY;
   std::set<int32_t> refs;
   const bool have_kind = static_cast<int32_t>(m.tet_kind.size()) == nt;
+  double cos_min_dih = -2, cos_max_dih = 2;  // largest / smallest cosine seen
+  int32_t min_dih_tet = -1, max_dih_tet = -1, last_ref = 0;
   for (int32_t t = 0; t < nt; ++t) {
     const int32_t* v = m.tet(t);
     for (int k = 0; k < 4; ++k) used[v[k]] = 1;
@@ -161,22 +170,51 @@ QualityStats compute_stats(const TetMesh& m) {
     if (q < 0.3) s.alpha_below_03++;
     int bin = q <= 0 ? 0 : std::min(9, static_cast<int>(q * 10));
     s.alpha_histogram[bin]++;
-    double dh[6];
-    dihedral_angles(a, b, c, d, dh);
+    // Dihedral cosines from the outward face normals (cheap); angles proper
+    // (atan2, dihedral_angles) only for the extreme tets at the end.
+    double n[4][3], nl[4];
+    {
+      const double* p[4] = {a, b, c, d};
+      for (int f = 0; f < 4; ++f) {
+        double e1[3], e2[3];
+        sub(p[kFaceVertex[f][1]], p[kFaceVertex[f][0]], e1);
+        sub(p[kFaceVertex[f][2]], p[kFaceVertex[f][0]], e2);
+        cross(e1, e2, n[f]);
+        nl[f] = norm(n[f]);
+      }
+    }
     bool small = false, large = false;
-    for (double x : dh) {
-      s.dihedral_min = std::min(s.dihedral_min, x);
-      s.dihedral_max = std::max(s.dihedral_max, x);
-      s.dihedral_histogram[std::min(17, std::max(0, static_cast<int>(x / 10)))]++;
-      small |= x < 5;
-      large |= x > 175;
+    for (int e = 0; e < 6; ++e) {
+      const int k = kEdgeVertex[kEdgeOpposite[e]][0], l = kEdgeVertex[kEdgeOpposite[e]][1];
+      const double den = nl[k] * nl[l];
+      double cs = den > 0 ? -dot(n[k], n[l]) / den : 1.0;
+      cs = std::clamp(cs, -1.0, 1.0);
+      if (cs > cos_min_dih) { cos_min_dih = cs; min_dih_tet = t; }
+      if (cs < cos_max_dih) { cos_max_dih = cs; max_dih_tet = t; }
+      // bin k holds angles in [10k, 10k+10): count thresholds cos(10j deg) >= cs
+      const int dbin = static_cast<int>(std::upper_bound(kBinCos.begin(), kBinCos.end(), cs,
+                                                        [](double x, double y) { return x > y; }) -
+                                       kBinCos.begin());
+      s.dihedral_histogram[std::min(17, dbin)]++;
+      small |= cs > kCos5;
+      large |= cs < kCos175;
     }
     s.dihedral_below_5 += small;
     s.dihedral_above_175 += large;
     s.mean_ratio_worst = std::min(s.mean_ratio_worst, mean_ratio(a, b, c, d));
     s.radius_ratio_worst = std::min(s.radius_ratio_worst, radius_ratio(a, b, c, d));
-    refs.insert(m.tet_ref.empty() ? 0 : m.tet_ref[t]);
+    const int32_t r = m.tet_ref.empty() ? 0 : m.tet_ref[t];
+    if (t == 0 || r != last_ref) refs.insert(r);
+    last_ref = r;
   }
+  auto extreme = [&](int32_t t, bool want_min) {
+    const int32_t* v = m.tet(t);
+    double dh[6];
+    dihedral_angles(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]), dh);
+    return want_min ? *std::min_element(dh, dh + 6) : *std::max_element(dh, dh + 6);
+  };
+  if (min_dih_tet >= 0) s.dihedral_min = extreme(min_dih_tet, true);
+  if (max_dih_tet >= 0) s.dihedral_max = extreme(max_dih_tet, false);
   for (uint8_t u : used) s.vertices += u;
   s.boundary_tets = nt - s.kind_count[0];
   s.all_boundary_tets = s.kind_count[4];
