@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "tetopt/predicates.hpp"
@@ -140,29 +141,30 @@ Status build_adjacency(TetMesh& m) {
     }
   for (int32_t v = 0; v < nv; ++v) off[v + 1] += off[v];
   struct Entry {
-    uint64_t key;  // (second, third) vertex
+    int32_t b, c;  // second and third vertex of the sorted face
     int32_t face;  // packed 4t+f
   };
-  std::vector<Entry> ent(nf);
+  // Default-initialised (not zero-filled): every slot is written below.
+  std::unique_ptr<Entry[]> ent(new Entry[nf]);
   {
     std::vector<int32_t> fill(off.begin(), off.end() - 1);
     for (int32_t t = 0; t < nt; ++t)
       for (int f = 0; f < 4; ++f) {
         int32_t k[3];
         face_key(m, t, f, k);
-        ent[fill[k[0]]++] = {(static_cast<uint64_t>(k[1]) << 32) | static_cast<uint32_t>(k[2]), 4 * t + f};
+        ent[fill[k[0]]++] = {k[1], k[2], 4 * t + f};
       }
   }
   m.adj.assign(nf, -1);
   for (int32_t v = 0; v < nv; ++v) {
-    Entry* b = ent.data() + off[v];
-    Entry* e = ent.data() + off[v + 1];
+    Entry* b = ent.get() + off[v];
+    Entry* e = ent.get() + off[v + 1];
     std::sort(b, e, [](const Entry& x, const Entry& y) {
-      return x.key != y.key ? x.key < y.key : x.face < y.face;
+      return x.b != y.b ? x.b < y.b : (x.c != y.c ? x.c < y.c : x.face < y.face);
     });
     for (Entry* p = b; p < e;) {
       Entry* q = p + 1;
-      while (q < e && q->key == p->key) ++q;
+      while (q < e && q->b == p->b && q->c == p->c) ++q;
       const long cnt = q - p;
       if (cnt > 2) {
         for (Entry* r = p; r < q; ++r)
@@ -181,8 +183,8 @@ Status build_adjacency(TetMesh& m) {
         std::string ids;
         for (Entry* r = p; r < q; ++r) ids += (r == p ? "" : ", ") + std::to_string(r->face / 4 + 1);
         return Status::error(ErrorCode::InvalidMesh,
-                             "face (" + std::to_string(v + 1) + ", " + std::to_string((p->key >> 32) + 1) + ", " +
-                                 std::to_string((p->key & 0xffffffffu) + 1) + ") is shared by " +
+                             "face (" + std::to_string(v + 1) + ", " + std::to_string(p->b + 1) + ", " +
+                                 std::to_string(p->c + 1) + ") is shared by " +
                                  std::to_string(cnt) + " tetrahedra (" + ids + "): the mesh is not manifold");
       }
       if (cnt == 2) {
