@@ -93,7 +93,12 @@ InvariantSnapshot capture_invariants(const TetMesh& m) {
 
 Status check_invariants(const TetMesh& m, const InvariantSnapshot& b) {
   auto fail = [](const std::string& what) { return Status::error(ErrorCode::Invariant, what); };
-  if (m.nv() != b.nv) return fail("vertex count changed from " + std::to_string(b.nv) + " to " + std::to_string(m.nv()));
+  // Vertex insertion (insert.hpp) appends free vertices: the original ids keep
+  // their meaning, so only a shrinking count or a constrained newcomer fails.
+  if (m.nv() < b.nv) return fail("vertex count changed from " + std::to_string(b.nv) + " to " + std::to_string(m.nv()));
+  if (m.vert_constrained.size() == static_cast<size_t>(m.nv()))
+    for (int32_t v = b.nv; v < m.nv(); ++v)
+      if (m.vert_constrained[v]) return fail("appended vertex " + std::to_string(v + 1) + " is constrained");
   for (size_t i = 0; i < b.vertices.size(); ++i)
     if (std::memcmp(m.point(b.vertices[i]), &b.coords[3 * i], 3 * sizeof(double)) != 0)
       return fail("constrained vertex " + std::to_string(b.vertices[i] + 1) + " moved");

@@ -655,20 +655,30 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   c.ref = m_.tet_ref[t];
   const bool has_entity = !m_.tet_entity.empty();
   c.entity = has_entity ? m_.tet_entity[t] : 0;
+  // A tet may join the cavity across an unconstrained face when it lies in
+  // the same region (and Gmsh entity).
+  auto joinable = [&](int32_t o, int f) -> int32_t {
+    const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+    if (nb < 0 || ((m_.face_mask[o] >> f) & 1u)) return -1;
+    const int32_t n = nb / 4;
+    if (!alive(n) || m_.tet_ref[n] != c.ref || (has_entity && m_.tet_entity[n] != c.entity)) return -1;
+    return n;
+  };
   int32_t nbs[4];
   int nn = 0;
   for (int f = 0; f < 4; ++f) {
-    const int32_t nb = m_.adj[4 * static_cast<size_t>(t) + f];
-    if (nb < 0 || ((m_.face_mask[t] >> f) & 1u)) continue;
-    const int32_t o = nb / 4;
-    if (m_.tet_ref[o] != c.ref || (has_entity && m_.tet_entity[o] != c.entity)) continue;
-    nbs[nn++] = o;
+    const int32_t n = joinable(t, f);
+    if (n >= 0) nbs[nn++] = n;
   }
-  // Every subset of the free-face neighbours joins t in a candidate cavity;
-  // the best fan (highest worst alpha after the position search) wins.
+  // Candidate cavities: t plus every subset of its joinable face neighbours,
+  // then a growing cavity (t plus all of them, grown one tet at a time across
+  // the unconstrained outer face whose fan tet is worst at the best position
+  // so far: Klingner & Shewchuk 2007 grow the cavity where the star fails).
+  // The best fan (highest worst alpha after the position search) wins.
   int nf = 0, best_nf = 0;
   int32_t face[kMaxOuter][3], best_face[kMaxOuter][3];
-  int32_t best_old[5];
+  int32_t face_nb[kMaxOuter];
+  int32_t best_old[kMaxOld];
   int best_nold = 0;
   double best_x[3] = {0, 0, 0}, best_f = -kInf;
   auto fan = [&](const double* p) {
@@ -677,12 +687,13 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
       w = std::min(w, quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p));
     return w;
   };
-  for (int mask = 0; mask < (1 << nn); ++mask) {
-    int32_t old[5];
-    int nold = 0;
-    old[nold++] = t;
-    for (int i = 0; i < nn; ++i)
-      if ((mask >> i) & 1) old[nold++] = nbs[i];
+  int32_t old[kMaxOld];
+  int nold = 0;
+  double x[3] = {0, 0, 0};
+  bool have_x = false;
+  // Collects the outer faces of old[0..nold) and optimises the new vertex;
+  // false when the cavity is unusable (too many faces, a vertex inside).
+  auto evaluate = [&]() -> bool {
     nf = 0;
     double centre[3] = {0, 0, 0};
     int ncentre = 0;
@@ -693,7 +704,10 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
         const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
         bool inside = false;
         for (int j = 0; j < nold && nb >= 0 && !inside; ++j) inside = old[j] == nb / 4;
+        if (inside && ((m_.face_mask[o] >> f) & 1u)) return false;
         if (inside) continue;
+        if (nf >= kMaxNew) return false;
+        face_nb[nf] = joinable(o, f);
         for (int k = 0; k < 3; ++k) {
           face[nf][k] = tv[kFaceVertex[f][k]];
           const double* p = m_.point(face[nf][k]);
@@ -703,28 +717,51 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
         ++nf;
       }
     }
-    for (double& x : centre) x /= ncentre;
-    // Compass search from the centre of the cavity's outer vertices.
-    double x[3] = {centre[0], centre[1], centre[2]};
-    double fx = fan(x);
+    // Every vertex of the cavity must stay on its boundary (no vertex may
+    // vanish with the old tets).
+    for (int i = 0; i < nold; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const int32_t v = m_.tet(old[i])[k];
+        bool on = false;
+        for (int j = 0; j < nf && !on; ++j) on = face[j][0] == v || face[j][1] == v || face[j][2] == v;
+        if (!on) return false;
+      }
+    for (double& y : centre) y /= ncentre;
+    // Compass search from the best of: the previous position, the centre of
+    // t, the centre of the cavity's outer vertices.
+    double tc[3] = {0, 0, 0};
+    for (int k = 0; k < 4; ++k)
+      for (int d = 0; d < 3; ++d) tc[d] += 0.25 * m_.point(m_.tet(t)[k])[d];
+    double fx = fan(centre);
+    std::copy(centre, centre + 3, x);
+    if (const double f2 = fan(tc); f2 > fx) { fx = f2; std::copy(tc, tc + 3, x); }
+    double px[3] = {best_x[0], best_x[1], best_x[2]};
+    if (have_x)
+      if (const double f3 = fan(px); f3 > fx) { fx = f3; std::copy(px, px + 3, x); }
     double len = 0;
     for (int i = 0; i < nf; ++i) {
       const double* a = m_.point(face[i][0]);
       len += std::sqrt((a[0] - x[0]) * (a[0] - x[0]) + (a[1] - x[1]) * (a[1] - x[1]) + (a[2] - x[2]) * (a[2] - x[2]));
     }
-    double h = 0.2 * len / nf;
+    double h = 0.1 * len / nf;
     const double hmin = 1e-4 * len / nf;
-    static constexpr double kDir[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (int evals = 0; h > hmin && evals < 300;) {
+    static constexpr double kDir[14][3] = {{1, 0, 0},   {-1, 0, 0},  {0, 1, 0},  {0, -1, 0}, {0, 0, 1},
+                                           {0, 0, -1},  {1, 1, 1},   {-1, -1, -1}, {1, 1, -1}, {-1, -1, 1},
+                                           {1, -1, 1},  {-1, 1, -1}, {-1, 1, 1}, {1, -1, -1}};
+    int start = 0;
+    for (int evals = 0; h > hmin && evals < 400;) {
       bool moved = false;
-      for (const auto& d : kDir) {
-        const double y[3] = {x[0] + h * d[0], x[1] + h * d[1], x[2] + h * d[2]};
+      for (int k = 0; k < 14; ++k) {
+        const auto& d = kDir[(start + k) % 14];
+        const double s = k < 6 ? h : h * 0.57735026918962576;
+        const double y[3] = {x[0] + s * d[0], x[1] + s * d[1], x[2] + s * d[2]};
         const double fy = fan(y);
         ++evals;
         if (fy > fx) {
           fx = fy;
           std::copy(y, y + 3, x);
           moved = true;
+          start = (start + k) % 14;  // try the successful direction first
           break;
         }
       }
@@ -733,11 +770,40 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     if (fx > best_f) {
       best_f = fx;
       std::copy(x, x + 3, best_x);
+      have_x = true;
       best_nf = nf;
       std::copy(&face[0][0], &face[0][0] + 3 * nf, &best_face[0][0]);
       best_nold = nold;
       std::copy(old, old + nold, best_old);
     }
+    return true;
+  };
+  for (int mask = 0; mask < (1 << nn); ++mask) {
+    nold = 0;
+    old[nold++] = t;
+    for (int i = 0; i < nn; ++i)
+      if ((mask >> i) & 1) old[nold++] = nbs[i];
+    evaluate();
+  }
+  // Growth from the full one-ring of faces.
+  nold = 0;
+  old[nold++] = t;
+  for (int i = 0; i < nn; ++i) old[nold++] = nbs[i];
+  for (int step = 0; step < 12 && nold < kMaxOld; ++step) {
+    if (!evaluate()) break;
+    // Worst fan tet at the current position among faces we may cross.
+    int pick = -1;
+    double pw = kInf;
+    for (int i = 0; i < nf; ++i) {
+      if (face_nb[i] < 0) continue;
+      bool dup = false;
+      for (int j = 0; j < nold && !dup; ++j) dup = old[j] == face_nb[i];
+      if (dup) continue;
+      const double q = quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), x);
+      if (q < pw) { pw = q; pick = i; }
+    }
+    if (pick < 0) break;
+    old[nold++] = face_nb[pick];
   }
   c.n_old = best_nold;
   c.old_min = kInf;
@@ -749,14 +815,14 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   }
   nf = best_nf;
   std::copy(&best_face[0][0], &best_face[0][0] + 3 * nf, &face[0][0]);
-  double* x = best_x;
+  const double* bx = best_x;
   const double fx = best_f;
   if (!(fx > c.old_min + o_.margin)) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
   // Append the vertex (existing ids unchanged), plan, and take it back if the
   // plan fails.
   const int32_t nv = m_.nv();
   const bool has_vref = m_.vert_ref.size() == static_cast<size_t>(nv);
-  m_.xyz.insert(m_.xyz.end(), x, x + 3);
+  m_.xyz.insert(m_.xyz.end(), bx, bx + 3);
   if (has_vref) m_.vert_ref.push_back(0);
   m_.vert_constrained.push_back(0);
   for (auto& pf : m_.point_fields) pf.values.insert(pf.values.end(), pf.components, 0.0);

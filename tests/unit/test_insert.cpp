@@ -12,6 +12,7 @@
 
 #include "tetopt/generate.hpp"
 #include "tetopt/insert.hpp"
+#include "tetopt/invariants.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
@@ -90,4 +91,39 @@ TEST(Insert, PassKeepsInvariantsAndAppendsFreeVertices) {
     }
   RecordProperty("inserted", static_cast<int>(inserted));
   EXPECT_GT(inserted, 0);
+}
+
+// A slab one cell thick (every vertex on the boundary, as the impeller's
+// shroud): flips and smoothing cannot touch its kind-4 tets, insertion of a
+// vertex at mid-height must raise the worst alpha, and check_invariants()
+// accepts the appended free vertices while the original ones are unchanged.
+TEST(Insert, ThinSlabRaisesWorstAlphaAndPassesInvariantCheck) {
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = 6;
+  bo.nz = 1;
+  TetMesh m = make_box_mesh(bo);
+  for (int32_t v = 0; v < m.nv(); ++v) m.xyz[3 * static_cast<size_t>(v) + 2] *= 0.2;
+  ASSERT_TRUE(build_topology(m).ok());
+  for (int32_t v = 0; v < m.nv(); ++v) ASSERT_TRUE(m.vert_constrained[v]);
+  const InvariantSnapshot snap = capture_invariants(m);
+  const int32_t nv0 = m.nv();
+  const double w0 = worst(m);
+  InsertOptions o;
+  o.quality_threshold = 1.0;
+  o.passes = 4;
+  const InsertStats st = insert_pass(m, o);
+  ASSERT_TRUE(st.status.ok());
+  EXPECT_GT(st.inserted, 0);
+  EXPECT_GT(worst(m), w0 + 1e-3);
+  ASSERT_TRUE(validate(m, ValidateLevel::Full).ok());
+  EXPECT_TRUE(check_invariants(m, snap).ok()) << check_invariants(m, snap).message;
+  // The check must still catch a constrained newcomer and a lost vertex.
+  ASSERT_GT(m.nv(), nv0);
+  TetMesh bad = m;
+  bad.vert_constrained[static_cast<size_t>(nv0)] = 1;
+  EXPECT_FALSE(check_invariants(bad, snap).ok());
+  TetMesh shrunk = m;
+  shrunk.xyz.resize(3 * static_cast<size_t>(nv0 - 1));
+  shrunk.vert_constrained.resize(static_cast<size_t>(nv0 - 1));
+  EXPECT_FALSE(check_invariants(shrunk, snap).ok());
 }
