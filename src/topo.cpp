@@ -681,10 +681,19 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   int32_t best_old[kMaxOld];
   int best_nold = 0;
   double best_x[3] = {0, 0, 0}, best_f = -kInf;
-  auto fan = [&](const double* p) {
+  // Worst alpha of the fan at p; stops early (returning a value <= stop) once
+  // it cannot beat stop.  The face that failed last is tried first next time.
+  int lead = 0;
+  auto fan = [&](const double* p, double stop = -kInf) {
     double w = kInf;
-    for (int i = 0; i < nf && w > -kInf; ++i)
-      w = std::min(w, quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p));
+    for (int k = 0; k < nf && w > stop; ++k) {
+      const int i = (k + lead) % nf;
+      const double q = quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p);
+      if (q < w) {
+        w = q;
+        if (w <= stop) lead = i;
+      }
+    }
     return w;
   };
   int32_t old[kMaxOld];
@@ -755,7 +764,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
         const auto& d = kDir[(start + k) % 14];
         const double s = k < 6 ? h : h * 0.57735026918962576;
         const double y[3] = {x[0] + s * d[0], x[1] + s * d[1], x[2] + s * d[2]};
-        const double fy = fan(y);
+        const double fy = fan(y, fx);
         ++evals;
         if (fy > fx) {
           fx = fy;
@@ -783,14 +792,18 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     old[nold++] = t;
     for (int i = 0; i < nn; ++i)
       if ((mask >> i) & 1) old[nold++] = nbs[i];
+    lead = 0;
     evaluate();
   }
   // Growth from the full one-ring of faces.
   nold = 0;
   old[nold++] = t;
   for (int i = 0; i < nn; ++i) old[nold++] = nbs[i];
-  for (int step = 0; step < 12 && nold < kMaxOld; ++step) {
+  for (int step = 0, stale = 0; step < 12 && nold < kMaxOld && stale < 3; ++step) {
+    const double before = best_f;
+    lead = 0;
     if (!evaluate()) break;
+    stale = best_f > before ? 0 : stale + 1;
     // Worst fan tet at the current position among faces we may cross.
     int pick = -1;
     double pw = kInf;

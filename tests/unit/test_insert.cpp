@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <random>
 #include <set>
 #include <vector>
 
@@ -102,8 +103,19 @@ TEST(Insert, ThinSlabRaisesWorstAlphaAndPassesInvariantCheck) {
   bo.nx = bo.ny = 6;
   bo.nz = 1;
   TetMesh m = make_box_mesh(bo);
-  for (int32_t v = 0; v < m.nv(); ++v) m.xyz[3 * static_cast<size_t>(v) + 2] *= 0.2;
+  // Planar in-plane jitter of the vertices off the side walls: the top and
+  // bottom stay planar, the tets between them become poor.
+  std::mt19937 g(1);
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  for (int32_t v = 0; v < m.nv(); ++v) {
+    double* p = &m.xyz[3 * static_cast<size_t>(v)];
+    if (p[0] > 0 && p[0] < 6 && p[1] > 0 && p[1] < 6) {
+      p[0] += u(g);
+      p[1] += u(g);
+    }
+  }
   ASSERT_TRUE(build_topology(m).ok());
+  ASSERT_TRUE(nonpositive_tets(m).empty());
   for (int32_t v = 0; v < m.nv(); ++v) ASSERT_TRUE(m.vert_constrained[v]);
   const InvariantSnapshot snap = capture_invariants(m);
   const int32_t nv0 = m.nv();
