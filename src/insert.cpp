@@ -32,7 +32,8 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   for (int p = 0; p < std::max(1, o.passes); ++p) {
     work.clear();
     for (int32_t t = 0; t < m.nt(); ++t)
-      if (ed.alive(t) && ed.cached_alpha(t) < o.quality_threshold && (!o.all_boundary_only || m.tet_kind[t] == 4))
+      if (ed.alive(t) && ed.cached_alpha(t) < o.quality_threshold && (!o.all_boundary_only || m.tet_kind[t] == 4) &&
+          m.tet_kind[t] >= o.min_kind)
         work.push_back(t);
     // Worst first: the worst tets get the first choice of cavity.
     std::stable_sort(work.begin(), work.end(),
