@@ -15,9 +15,13 @@
 // end so every existing vertex id, and so every listed triangle and edge,
 // keeps its meaning.  Volume per region is conserved (same cavity, same ref).
 //
-// Cost: one insertion tries at most 300 fan evaluations of <= 32 tets; a
-// pass is O(nt) to scan plus the tets below the threshold, then one
-// TopoEditor::finish().
+// Cavities tried: t plus every subset of its joinable face neighbours, then
+// t plus all of them grown one tet at a time across the unconstrained outer
+// face whose fan tet is worst (<= 12 steps, stop after 3 without gain, <= 32
+// tets / 32 outer faces); every vertex of the cavity must stay on its boundary.
+// Cost: per visited tet <= ~28 compass searches of <= 400 early-exit fan
+// evaluations; a pass is O(nt) to scan plus the visited tets, then one
+// TopoEditor::finish().  Impeller (438k tets) with --allow-insert: 73 s.
 #pragma once
 #include <cstdint>
 
