@@ -233,11 +233,14 @@ void classify(TetMesh& m) {
       return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.c < y.c);
     });
   };
+  const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
   for (int32_t t = 0; t < nt; ++t) {
     uint8_t mask = 0;
     for (int f = 0; f < 4; ++f) {
       const int32_t n = m.adj[4 * t + f];
-      bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t];
+      // Faces between different Gmsh entities are kept too, even inside one
+      // region ref: entity boundaries are geometry the user gave.
+      bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t] || (has_entity && m.tet_entity[n / 4] != m.tet_entity[t]);
       if (!c && !tri_sorted.empty()) {
         int32_t k[3];
         face_key(m, t, f, k);

@@ -20,8 +20,9 @@
 //                       4 = "all boundary element")
 //
 // Constrained entities (DESIGN.md): a face is constrained when it lies on one
-// tet, between tets of different refs, or is listed among the file's
-// triangles (every listed triangle is kept, so its ref survives).  A vertex is
+// tet, between tets of different refs or of different Gmsh entities (when the
+// file has entity tags), or is listed among the file's triangles (every
+// listed triangle is kept, so its ref survives).  A vertex is
 // constrained when it lies on a constrained face, on a listed edge, or is
 // listed as required / corner.  Constrained vertices never move, bit for bit;
 // constrained faces are never removed.

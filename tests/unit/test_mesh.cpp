@@ -192,3 +192,23 @@ TEST(Mesh, InvariantsDetectMovedBoundaryVertexAndLostFace) {
   classify(bad2);
   EXPECT_FALSE(check_invariants(bad2, snap).ok());
 }
+
+TEST(Mesh, FaceBetweenGmshEntitiesIsConstrained) {
+  TetMesh m = two_tets();
+  ASSERT_TRUE(build_topology(m).ok());
+  for (int32_t t = 0; t < 2; ++t)
+    for (int f = 0; f < 4; ++f)
+      if (m.adj[4 * t + f] >= 0) {
+        EXPECT_FALSE(m.face_mask[t] >> f & 1);
+      }
+  m.tet_entity = {5, 6};  // same ref, different entities
+  classify(m);
+  int shared = 0;
+  for (int32_t t = 0; t < 2; ++t)
+    for (int f = 0; f < 4; ++f)
+      if (m.adj[4 * t + f] >= 0) {
+        shared++;
+        EXPECT_TRUE(m.face_mask[t] >> f & 1);
+      }
+  EXPECT_EQ(shared, 2);
+}
