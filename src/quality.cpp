@@ -7,21 +7,16 @@
 #include <set>
 #include <sstream>
 
+#include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/mesh.hpp"
 
 namespace tetopt {
 namespace {
-inline void sub(const double* a, const double* b, double* r) {
-  r[0] = a[0] - b[0]; r[1] = a[1] - b[1]; r[2] = a[2] - b[2];
-}
-inline void cross(const double* a, const double* b, double* r) {
-  r[0] = a[1] * b[2] - a[2] * b[1];
-  r[1] = a[2] * b[0] - a[0] * b[2];
-  r[2] = a[0] * b[1] - a[1] * b[0];
-}
-inline double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-inline double norm(const double* a) { return std::sqrt(dot(a, a)); }
+using detail::cross;
+using detail::dot;
+using detail::norm;
+using detail::sub;
 const double kSixSqrt6 = 6.0 * std::sqrt(6.0);
 // cos(10 j degrees), j = 1..17, decreasing: histogram bin edges.
 const std::array<double, 17> kBinCos = [] {

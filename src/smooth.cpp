@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
@@ -31,16 +32,10 @@ const double kTwoSqrt6 = 2.0 * std::sqrt(6.0);
 const double kGoldHi = (std::sqrt(5.0) - 1.0) / 2.0;
 const double kGoldLo = 1.0 - kGoldHi;
 
-inline void sub(const double* a, const double* b, double* r) {
-  r[0] = a[0] - b[0]; r[1] = a[1] - b[1]; r[2] = a[2] - b[2];
-}
-inline void cross(const double* a, const double* b, double* r) {
-  r[0] = a[1] * b[2] - a[2] * b[1];
-  r[1] = a[2] * b[0] - a[0] * b[2];
-  r[2] = a[0] * b[1] - a[1] * b[0];
-}
-inline double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-inline double norm(const double* a) { return std::sqrt(dot(a, a)); }
+using detail::cross;
+using detail::dot;
+using detail::norm;
+using detail::sub;
 
 // One star tet seen from its free vertex x as (x, a, b, c), positively
 // oriented: (a, b, c) = kFaceVertex[slot] is the face opposite x, whose
