@@ -6,6 +6,7 @@
 #                  (minimised with -merge=1; keep the committed corpus < 2 MB)
 #   FUZZ_JOBS=N    build parallelism (default 2)
 #   FUZZ_NOBUILD=1 run the targets already built in build-fuzz
+#   FUZZ_SEED=S    libFuzzer seed (default 1, so a CI run is repeatable; 0 = random)
 # New inputs found during a run go to build-fuzz/corpus/TARGET (not committed);
 # crashes go to build-fuzz/artifacts/ and make the script exit 1.  Every
 # crash must become a regression test (tests/regression/, test_hostile.cpp).
@@ -29,7 +30,7 @@ for t in $targets; do
   work="$build/corpus/$t"; seeds="$here/corpus/$t"
   mkdir -p "$work" "$seeds"
   echo "== fuzz $t for ${secs}s"
-  "$build/fuzz/${t}_fuzz" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
+  "$build/fuzz/${t}_fuzz" -seed="${FUZZ_SEED:-1}" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
       -artifact_prefix="$build/artifacts/${t}-" -print_final_stats=1 "$work" "$seeds" 2>&1 |
     grep -E "^(#[0-9]+ +DONE|==[0-9]+==ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|Test unit written|runtime error" 
   rc=${PIPESTATUS[0]}

@@ -177,8 +177,14 @@ class GmshReader {
     return v;
   }
   /// A size_t field in binary, an integer token in text.
+  /// A count or tag: never negative (a negative block size once slipped past
+  /// the "more than declared" check and reached vector::resize).
   Status count_val(int64_t& v, const char* what) {
-    if (!binary_) return int_tok(v, what);
+    if (!binary_) {
+      if (Status s = int_tok(v, what); !s) return s;
+      if (v < 0) return fail(ErrorCode::Parse, std::string("negative ") + what + " " + std::to_string(v));
+      return Status::success();
+    }
     if (!need(static_cast<size_t>(dsize_))) return fail_bin(std::string("truncated data while reading ") + what);
     v = size_val();
     if (v < 0) return fail_bin(std::string("absurd ") + what);
