@@ -80,12 +80,6 @@ void throw_status(const Status& s, const std::string& prefix = "") {
   }
 }
 
-std::string id_list(const std::vector<int32_t>& ids, size_t max = 10) {
-  std::string s;
-  for (size_t i = 0; i < ids.size() && i < max; ++i) s += (i ? ", " : "") + std::to_string(ids[i]);
-  if (ids.size() > max) s += ", ... (" + std::to_string(ids.size()) + " in all)";
-  return s;
-}
 
 // ---------------------------------------------------------------- NumPy in
 
@@ -392,18 +386,11 @@ py::dict mesh_to_dict(TetMesh&& m) {
   return d;
 }
 
-/// Orientation, then topology: the steps load_mesh does in the CLI.  With
-/// `strict`, inverted or flat tets raise ValueError naming their ids.
-tetopt::OrientationReport prepare(TetMesh& m, bool strict) {
+/// Orientation, then topology: the steps load_mesh does in the CLI.
+/// Inverted or flat tets are kept (quality() measures them; improve()
+/// untangles them first, as `tetopt improve` does).
+tetopt::OrientationReport prepare(TetMesh& m) {
   tetopt::OrientationReport orient = tetopt::normalize_orientation(m);
-  if (strict && !orient.inverted.empty())
-    throw py::value_error(std::to_string(orient.inverted.size()) +
-                          " inverted tets (0-based ids: " + id_list(orient.inverted) +
-                          "); improve needs every tet positively oriented (or every tet negatively oriented)");
-  if (strict && !orient.flat_tets.empty())
-    throw py::value_error(std::to_string(orient.flat_tets.size()) +
-                          " flat (zero-volume) tets (0-based ids: " + id_list(orient.flat_tets) +
-                          "); improve needs every tet to have a nonzero volume");
   Status s;
   {
     py::gil_scoped_release nogil;
@@ -539,7 +526,8 @@ py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py
   get_index_array(constrained_faces, m.tris, "constrained_faces", 3, true, m.nv(), "points");
   m.tri_ref.assign(m.tris.size() / 3, 0);
   throw_status(tetopt::check_arrays(m, "mesh"));
-  const tetopt::OrientationReport orient = prepare(m, true);
+  // Inverted or flat tets are untangled by improve(), as in the CLI.
+  const tetopt::OrientationReport orient = prepare(m);
   const std::string js = run_improve(m, opt, log, t0, "<arrays>");
   py::object dj = improve_diagnosis(m, opt, popt);
   if (orient.flipped)  // hand the tets back in the caller's (negative) convention
@@ -553,7 +541,7 @@ py::tuple improve_mesh(const py::dict& d, const PyImproveOptions& popt, const py
   const auto t0 = std::chrono::steady_clock::now();
   const tetopt::ImproveOptions opt = to_options(popt);
   TetMesh m = mesh_from_dict(d);
-  prepare(m, true);
+  prepare(m);  // improve() untangles inverted or flat tets, as in the CLI
   const std::string js = run_improve(m, opt, log, t0, "<mesh>");
   py::object dj = improve_diagnosis(m, opt, popt);
   return py::make_tuple(mesh_to_dict(std::move(m)), js, dj);
@@ -565,7 +553,7 @@ py::tuple quality_mesh(const py::dict& d, bool diagnose, double threshold) {
   if (diagnose && !(threshold > 0 && threshold <= 1))
     throw py::value_error("threshold: must be in (0, 1], got " + py::repr(py::float_(threshold)).cast<std::string>());
   TetMesh m = mesh_from_dict(d);
-  prepare(m, false);
+  prepare(m);
   tetopt::QualityStats st;
   tetopt::TetQualityFields f;
   {

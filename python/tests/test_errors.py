@@ -60,17 +60,44 @@ def test_bad_refs_and_faces():
         tetopt.improve(P, T, constrained_faces=[[0, 1, 9]])
 
 
-def test_inverted_and_flat_tets_are_named():
+def test_inverted_and_flat_tets_are_untangled_or_reported():
+    # As `tetopt improve`: improve() untangles what it can and says so.
     pts = np.vstack([P, [[0, 0, -1]]])
     tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4], [0, 1, 2, 5]])
-    # tets 0 and 1 positive; tet 2 (below the face 0 1 2) listed the wrong way round.
-    with pytest.raises(ValueError, match=r"1 inverted tets \(0-based ids: 2\)"):
-        tetopt.improve(pts, tets)
+    # tets 0 and 1 positive; tet 2 (below the face 0 1 2) listed the wrong way
+    # round.  All its vertices are on the boundary: it cannot be untangled.
+    with pytest.warns(RuntimeWarning, match=r"0 inverted or flat input tets made positive, 1 could not be"):
+        p2, t2, r2, rep = tetopt.improve(pts, tets)
+    assert rep["operations"]["still_inverted"] == 1
+    assert np.array_equal(p2, pts) and len(t2) == 3
+    # A free vertex pushed through its neighbours: untangled, nothing left.
+    g = np.array([[x, y, z] for z in (0.0, 1.0, 2.0) for y in (0.0, 1.0, 2.0) for x in (0.0, 1.0, 2.0)])
+    mesh_tets = []
+    for x in range(2):
+        for y in range(2):
+            for z in range(2):
+                v = lambda i, j, k: (x + i) + 3 * (y + j) + 9 * (z + k)
+                c = [v(0, 0, 0), v(1, 0, 0), v(1, 1, 0), v(0, 1, 0), v(0, 0, 1), v(1, 0, 1), v(1, 1, 1), v(0, 1, 1)]
+                # Kuhn subdivision along the diagonal c0-c6: six positive tets
+                for a, b in ((1, 2), (2, 3), (3, 7), (7, 4), (4, 5), (5, 1)):
+                    mesh_tets.append([c[0], c[a], c[b], c[6]])
+    mesh_tets = np.array(mesh_tets)
+    vol = lambda P, T: np.einsum("ij,ij->i", np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), P[T[:, 3]] - P[T[:, 0]])
+    if (vol(g, mesh_tets) < 0).any():
+        mesh_tets[:, [1, 2]] = mesh_tets[:, [2, 1]]
+    assert (vol(g, mesh_tets) > 0).all()
+    bad = g.copy()
+    bad[13] = [1.0, 1.0, 2.6]  # the centre vertex (the only free one) pushed out through the top
+    assert (vol(bad, mesh_tets) <= 0).any()
+    with pytest.warns(RuntimeWarning, match=r"made positive, 0 could not be"):
+        p3, t3, r3, rep3 = tetopt.improve(bad, mesh_tets)
+    assert rep3["operations"]["untangled"] > 0 and rep3["operations"]["still_inverted"] == 0
+    assert rep3["after"]["inverted_or_flat"] == 0
+    assert np.array_equal(np.delete(p3, 13, axis=0), np.delete(bad, 13, axis=0))  # constrained: bit-identical
+    assert abs(vol(p3, t3).sum() - vol(g, mesh_tets).sum()) < 1e-9
+    # quality() measures flat tets instead of refusing.
     flat = np.vstack([P, [[0.5, 0.5, 0]]])
     tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4], [0, 1, 5, 2]])  # tet 2 lies in z = 0
-    with pytest.raises(ValueError, match=r"1 flat \(zero-volume\) tets \(0-based ids: 2\)"):
-        tetopt.improve(flat, tets)
-    # quality() measures them instead of refusing.
     q = tetopt.quality(flat, tets)
     assert q["inverted_or_flat"] == 1 and q["per_tet"]["alpha"][2] == 0
 

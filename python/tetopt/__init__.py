@@ -19,8 +19,8 @@ corner.  Constrained vertices never move, bit for bit; constrained faces are
 never removed.  Every improve() run ends by proving it (see the report's
 ``boundary_unchanged``).
 
-Errors: bad arguments (wrong shape or dtype, index out of range, NaN, inverted
-tets given to improve, non-manifold meshes) raise ValueError with a message
+Errors: bad arguments (wrong shape or dtype, index out of range, NaN,
+non-manifold meshes) raise ValueError with a message
 naming the array, the 0-based row and the value; unreadable files raise
 OSError; an invariant failure (a bug in tetopt) raises RuntimeError.
 
@@ -168,6 +168,12 @@ def _with_diagnosis(js: str, dj: Optional[str]) -> Dict[str, Any]:
     report: Dict[str, Any] = json.loads(js)
     if dj is not None:
         report["diagnosis"] = json.loads(dj)
+    ops = report.get("operations", {})
+    if ops.get("untangled", 0) or ops.get("still_inverted", 0):
+        # What `tetopt improve` prints as its "untangling:" line.
+        warnings.warn(f"untangling: {ops.get('untangled', 0)} inverted or flat input tets made positive, "
+                      f"{ops.get('still_inverted', 0)} could not be (all their vertices are constrained)",
+                      RuntimeWarning, stacklevel=3)
     return report
 
 
@@ -201,7 +207,10 @@ def improve(
         tets: (m, 4) integer vertex ids, 0-based.  All positively oriented,
             or all negatively oriented (TetGen's convention; the result then
             comes back in that convention too).  Inverted or flat tets among
-            positive ones raise ValueError naming them.
+            positive ones are untangled first by moving free vertices, as
+            ``tetopt improve`` does; a RuntimeWarning says how many were
+            made positive and how many could not be (report["operations"]
+            "untangled" and "still_inverted").
         refs: (m,) integer region refs, or None for a single region (zeros).
             Faces between different refs are interfaces and stay.
         mode: 'best' (default: rounds of Algorithm 4, flips everywhere,
