@@ -1,0 +1,122 @@
+// tetopt-mpi: partition a global mesh, cut it into parts with frozen
+// interfaces, and put the improved parts back together.  No MPI here: these
+// functions are plain data transformations, the driver (main.cpp) moves the
+// bytes.
+//
+// The promise in parallel.  A part is a TetMesh of its tets with local vertex
+// numbers.  In it every vertex constrained in the global mesh, and every vertex
+// shared with another part (the partition interface), is listed as required;
+// every face constrained in the global mesh is listed as a triangle; every
+// listed edge with both ends in the part is listed.  Faces on the partition cut
+// lie on one tet of the part and so are constrained there by construction.
+// improve() on a part therefore moves only vertices that are interior to the
+// part and free in the global mesh, and keeps every cut face: the parts fit
+// back together into a conforming mesh whose constrained entities are those of
+// the input, bit for bit.  main.cpp proves it at the end with
+// check_invariants against the snapshot of the input.
+#pragma once
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "tetopt/improve.hpp"
+#include "tetopt/mesh.hpp"
+
+namespace tetopt_mpi {
+
+/// Byte buffer writer / reader for the messages (native endianness: all
+/// ranks of one run share one architecture).
+struct Writer {
+  std::string buf;
+  template <class T> void put(const T& v) { buf.append(reinterpret_cast<const char*>(&v), sizeof(T)); }
+  template <class T> void put_vec(const std::vector<T>& v) {
+    put<uint64_t>(v.size());
+    buf.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+};
+struct Reader {
+  const std::string& buf;
+  size_t pos = 0;
+  bool ok = true;
+  explicit Reader(const std::string& b) : buf(b) {}
+  template <class T> T get() {
+    T v{};
+    if (pos + sizeof(T) > buf.size()) { ok = false; return v; }
+    std::memcpy(&v, buf.data() + pos, sizeof(T));
+    pos += sizeof(T);
+    return v;
+  }
+  template <class T> std::vector<T> get_vec() {
+    const uint64_t n = get<uint64_t>();
+    std::vector<T> v;
+    if (!ok || n > (buf.size() - pos) / sizeof(T)) { ok = false; return v; }
+    v.resize(n);
+    std::memcpy(v.data(), buf.data() + pos, n * sizeof(T));
+    pos += n * sizeof(T);
+    return v;
+  }
+};
+
+/// How the partitioner weights the dual graph (see partition_tets).
+struct PartitionOptions {
+  int parts = 1;
+  int seed = 0;
+  double threshold = 0.3;        ///< tets with alpha below it weigh more (work balance)
+  /// Per vertex of g (nullptr in round 1): 1 near the previous round's
+  /// interface, 2 near the worst tets.  Dual edges whose face touches a
+  /// flagged vertex are made expensive to cut (2 more than 1), so the new
+  /// interface avoids the tets frozen in the previous round and leaves the
+  /// worst tets, with room around them, inside one part.
+  const std::vector<uint8_t>* avoid = nullptr;
+};
+
+/// Part id (0..parts-1) of every tet of g (topology built), from METIS
+/// (METIS_PartGraphKway on the tet dual graph).  Returns an empty vector and
+/// sets err when METIS fails.
+std::vector<int32_t> partition_tets(const tetopt::TetMesh& g, const PartitionOptions& opt, std::string& err);
+
+/// One part as rank 0 keeps it: the global ids of its vertices (local id =
+/// index), and the serialised part mesh to send.
+struct PartPlan {
+  std::vector<int32_t> gids;
+  std::vector<uint8_t> fixed;   ///< per local vertex: 1 when listed required in the part
+  int64_t tets = 0, interface_vertices = 0;
+};
+
+/// Builds every part's plan and message.  shared_out (nv of g) gets 1 on the
+/// vertices that lie in two or more parts (the interface of this round).
+void build_parts(const tetopt::TetMesh& g, const std::vector<int32_t>& part, int parts,
+                 std::vector<PartPlan>& plans, std::vector<std::string>& messages,
+                 std::vector<uint8_t>& shared_out);
+
+/// Decodes a part message into a mesh with topology built.
+tetopt::Status decode_part(const std::string& msg, tetopt::TetMesh& m);
+
+/// A worker's answer: status, the improve report's numbers, and the improved part.
+std::string encode_result(const tetopt::Status& s, const tetopt::ImproveReport& rep, double seconds,
+                          const tetopt::TetMesh& m);
+struct PartResult {
+  int code = 0;
+  std::string message;
+  double seconds = 0;  ///< improve wall time on the worker
+  tetopt::ImproveReport rep;  ///< counts and seconds (stats not carried)
+  std::vector<double> xyz;
+  std::vector<int32_t> tets, tet_ref, tet_entity;
+};
+bool decode_result(const std::string& msg, PartResult& r);
+
+/// Replaces g's tets by the parts' (in part order) and moves/appends
+/// vertices; checks that every vertex listed required in a part kept its bits.
+/// Rebuilds g's topology.
+tetopt::Status merge_parts(tetopt::TetMesh& g, const std::vector<PartPlan>& plans,
+                           std::vector<PartResult>& results);
+
+/// Marks, in a vector of g.nv() flags (seed is padded with zeros to g.nv()), the vertices of every tet that has a
+/// vertex flagged in `seed` (one layer of tets around it).
+std::vector<uint8_t> dilate(const tetopt::TetMesh& g, std::vector<uint8_t> seed);
+
+/// Tets of g with a vertex flagged in `flags`.
+int64_t count_touching(const tetopt::TetMesh& g, std::vector<uint8_t> flags);
+
+}  // namespace tetopt_mpi
