@@ -11,7 +11,7 @@ TETOPT   := $(BUILD)/tetopt
 DEB_PKGS := build-essential cmake libcgal-dev libgmp-dev libmpfr-dev libboost-dev \
             libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen \
             python3 python3-numpy python3-scipy python3-meshio python3-pytest python3-gmsh \
-            python3-dev pybind11-dev libtbb-dev clang libclang-rt-14-dev chromium
+            python3-dev pybind11-dev libtbb-dev clang libclang-rt-14-dev chromium libopenmpi-dev openmpi-bin libmetis-dev
 
 .PHONY: all deps build demo test bench clean python fuzz test-sanitize
 

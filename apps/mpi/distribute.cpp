@@ -13,23 +13,33 @@ namespace tetopt_mpi {
 using namespace tetopt;
 
 std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& opt, std::string& err) {
-  const int32_t nt = g.nt();
-  std::vector<int32_t> part(static_cast<size_t>(nt), 0);
-  if (opt.parts <= 1) return part;
+  const int32_t ntg = g.nt();
+  const bool all = !opt.active || opt.active->size() != static_cast<size_t>(ntg);
+  // Inactive tets go to group `parts` (kept by rank 0, not improved).
+  std::vector<int32_t> part(static_cast<size_t>(ntg), opt.parts);
+  std::vector<int32_t> id(static_cast<size_t>(ntg), -1), tet_of;  // compact numbering of the active tets
+  for (int32_t t = 0; t < ntg; ++t)
+    if (all || (*opt.active)[t]) { id[t] = static_cast<int32_t>(tet_of.size()); tet_of.push_back(t); }
+  const int32_t nt = static_cast<int32_t>(tet_of.size());
+  if (opt.parts <= 1) {
+    for (int32_t t : tet_of) part[t] = 0;
+    return part;
+  }
   if (nt < opt.parts) {
     err = "fewer tets (" + std::to_string(nt) + ") than parts (" + std::to_string(opt.parts) + ")";
     return {};
   }
-  // Dual graph: one vertex per tet, one edge per interior face.
+  // Dual graph of the active tets: one vertex per tet, one edge per interior face.
   std::vector<idx_t> xadj(static_cast<size_t>(nt) + 1, 0), adjncy, adjwgt, vwgt(static_cast<size_t>(nt));
   adjncy.reserve(4 * static_cast<size_t>(nt));
   adjwgt.reserve(4 * static_cast<size_t>(nt));
   const std::vector<uint8_t>* avoid = opt.avoid && opt.avoid->size() == static_cast<size_t>(g.nv()) ? opt.avoid : nullptr;
-  for (int32_t t = 0; t < nt; ++t) {
+  for (int32_t i = 0; i < nt; ++i) {
+    const int32_t t = tet_of[i];
     const int32_t* tv = g.tet(t);
     for (int f = 0; f < 4; ++f) {
       const int32_t a = g.adj[4 * static_cast<size_t>(t) + f];
-      if (a < 0) continue;
+      if (a < 0 || id[a >> 2] < 0) continue;
       // Cutting along a face that is constrained anyway costs nothing in
       // quality; cutting an ordinary face freezes its neighbourhood; cutting
       // near the previous interface would freeze the same tets again.
@@ -40,12 +50,12 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
         if (level >= 2) w = 400;       // around the worst tets
         else if (level == 1) w = 100;  // around the previous interface
       }
-      adjncy.push_back(a >> 2);
+      adjncy.push_back(id[a >> 2]);
       adjwgt.push_back(w);
     }
-    xadj[t + 1] = static_cast<idx_t>(adjncy.size());
+    xadj[i + 1] = static_cast<idx_t>(adjncy.size());
     // Work balance: poor tets cost the optimiser more than good ones.
-    vwgt[t] = tet_alpha(g, t) < opt.threshold ? 4 : 1;
+    vwgt[i] = tet_alpha(g, t) < opt.threshold ? 4 : 1;
   }
   idx_t nvtxs = nt, ncon = 1, nparts = opt.parts, objval = 0;
   idx_t options[METIS_NOPTIONS];
@@ -59,25 +69,33 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
     err = "METIS_PartGraphKway failed (code " + std::to_string(rc) + ")";
     return {};
   }
-  for (int32_t t = 0; t < nt; ++t) part[t] = static_cast<int32_t>(out[t]);
+  for (int32_t i = 0; i < nt; ++i) part[tet_of[i]] = static_cast<int32_t>(out[i]);
   return part;
 }
 
 void build_parts(const TetMesh& g, const std::vector<int32_t>& part, int parts, std::vector<PartPlan>& plans,
                  std::vector<std::string>& messages, std::vector<uint8_t>& shared_out) {
   const int32_t nv = g.nv(), nt = g.nt();
-  std::vector<int32_t> first(static_cast<size_t>(nv), -1);
+  // first: the first group a vertex was seen in (any group); first_active:
+  // the same over the groups below `parts` only.
+  std::vector<int32_t> first(static_cast<size_t>(nv), -1), first_active(static_cast<size_t>(nv), -1);
+  std::vector<uint8_t> frozen(static_cast<size_t>(nv), 0);
   shared_out.assign(static_cast<size_t>(nv), 0);
-  std::vector<std::vector<int32_t>> tets_of(static_cast<size_t>(parts));
+  std::vector<std::vector<int32_t>> tets_of(static_cast<size_t>(parts) + 1);
   for (int32_t t = 0; t < nt; ++t) {
     const int32_t p = part[t];
     tets_of[p].push_back(t);
     for (int k = 0; k < 4; ++k) {
       const int32_t v = g.tet(t)[k];
       if (first[v] < 0) first[v] = p;
-      else if (first[v] != p) shared_out[v] = 1;
+      else if (first[v] != p) frozen[v] = 1;
+      if (p < parts) {
+        if (first_active[v] < 0) first_active[v] = p;
+        else if (first_active[v] != p) shared_out[v] = 1;
+      }
     }
   }
+  parts += tets_of.back().empty() ? 0 : 1;  // the kept group gets a plan too (never sent)
   const bool has_entity = !g.tet_entity.empty();
   plans.assign(static_cast<size_t>(parts), PartPlan{});
   messages.assign(static_cast<size_t>(parts), std::string{});
@@ -109,7 +127,7 @@ void build_parts(const TetMesh& g, const std::vector<int32_t>& part, int parts, 
     for (size_t i = 0; i < n; ++i) {
       const int32_t v = plan.gids[i];
       std::copy(g.point(v), g.point(v) + 3, &xyz[3 * i]);
-      if (g.vert_constrained[v] || shared_out[v]) {
+      if (g.vert_constrained[v] || frozen[v]) {
         plan.fixed[i] = 1;
         required.push_back(static_cast<int32_t>(i));
       }
@@ -141,6 +159,17 @@ void build_parts(const TetMesh& g, const std::vector<int32_t>& part, int parts, 
     messages[p] = std::move(w.buf);
     for (int32_t v : plan.gids) loc[v] = -1;
   }
+}
+
+PartResult passthrough(const std::string& msg) {
+  PartResult r;
+  Reader rd(msg);
+  r.xyz = rd.get_vec<double>();
+  r.tets = rd.get_vec<int32_t>();
+  r.tet_ref = rd.get_vec<int32_t>();
+  r.tet_entity = rd.get_vec<int32_t>();
+  if (!rd.ok) { r.code = static_cast<int>(ErrorCode::Invariant); r.message = "truncated kept group"; }
+  return r;
 }
 
 Status decode_part(const std::string& msg, TetMesh& m) {

@@ -69,11 +69,14 @@ struct PartitionOptions {
   /// interface avoids the tets frozen in the previous round and leaves the
   /// worst tets, with room around them, inside one part.
   const std::vector<uint8_t>* avoid = nullptr;
+  /// Per tet (nullptr: all): only these are partitioned and improved; the
+  /// others form group `parts`, kept unchanged by rank 0.
+  const std::vector<uint8_t>* active = nullptr;
 };
 
-/// Part id (0..parts-1) of every tet of g (topology built), from METIS
-/// (METIS_PartGraphKway on the tet dual graph).  Returns an empty vector and
-/// sets err when METIS fails.
+/// Part id (0..parts-1, or parts for an inactive tet) of every tet of g
+/// (topology built), from METIS (METIS_PartGraphKway on the dual graph of the
+/// active tets).  Returns an empty vector and sets err when METIS fails.
 std::vector<int32_t> partition_tets(const tetopt::TetMesh& g, const PartitionOptions& opt, std::string& err);
 
 /// One part as rank 0 keeps it: the global ids of its vertices (local id =
@@ -84,8 +87,11 @@ struct PartPlan {
   int64_t tets = 0, interface_vertices = 0;
 };
 
-/// Builds every part's plan and message.  shared_out (nv of g) gets 1 on the
-/// vertices that lie in two or more parts (the interface of this round).
+/// Builds every part's plan and message: parts 0..parts-1, plus one more for
+/// the kept group (part id == parts) when it has tets.  A vertex is required
+/// in a part when it is constrained in g or lies in two or more groups (kept
+/// group included).  shared_out (nv of g) gets 1 on the vertices that lie in
+/// two or more of the parts 0..parts-1 (the interface of this round).
 void build_parts(const tetopt::TetMesh& g, const std::vector<int32_t>& part, int parts,
                  std::vector<PartPlan>& plans, std::vector<std::string>& messages,
                  std::vector<uint8_t>& shared_out);
@@ -105,6 +111,9 @@ struct PartResult {
   std::vector<int32_t> tets, tet_ref, tet_entity;
 };
 bool decode_result(const std::string& msg, PartResult& r);
+
+/// The kept group's message read back as an unchanged result.
+PartResult passthrough(const std::string& msg);
 
 /// Replaces g's tets by the parts' (in part order) and moves/appends
 /// vertices; checks that every vertex listed required in a part kept its bits.

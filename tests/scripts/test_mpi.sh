@@ -1,0 +1,131 @@
+#!/usr/bin/env bash
+# tetopt-mpi (issue 11): distributed improvement on 2 and 4 ranks (4 ranks
+# oversubscribe a 2-core machine) on meshes tetopt generates itself.
+# Checks, for every run: exit 0; the boundary, region interface, volume per
+# region and orientation checked here independently with meshio (and with
+# ../shared/tools/meshcheck.py compare where present); no inverted or flat
+# tet (tetopt quality); worst alpha within 5% of single-process tetopt
+# improve on the same mesh, or better.  Also: same output twice (determinism),
+# --per-rank files that add up to the output, --allow-insert, error exits.
+# usage: test_mpi.sh TETOPT SOURCE_DIR      (exit 77: tetopt-mpi or mpirun absent)
+set -u
+T=$1; SRC=$2
+M=$(dirname "$T")/tetopt-mpi
+[ -x "$T" ] || { echo "skip: no CLI at $T"; exit 77; }
+[ -x "$M" ] || { echo "skip: tetopt-mpi not built (MPI or METIS absent at configure time)"; exit 77; }
+command -v mpirun >/dev/null || { echo "skip: no mpirun"; exit 77; }
+/usr/bin/python3 -c "import meshio, numpy" 2>/dev/null || { echo "skip: python3-meshio / numpy absent"; exit 77; }
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+MPIRUN="mpirun --oversubscribe --allow-run-as-root"
+W=$(mktemp -d); trap 'rm -rf "$W"' EXIT
+REF=$SRC/../shared/tools/meshcheck.py
+fail=0
+check() { if eval "$2"; then echo "ok   $1"; else echo "FAIL $1"; fail=1; fi; }
+worst() { "$T" quality "$1" --json | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["alpha_worst"])'; }
+nonpos() { "$T" quality "$1" --json | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["inverted_or_flat"])'; }
+within5() { /usr/bin/python3 -c "import sys; sys.exit(0 if $1 >= 0.95 * $2 else 1)"; }
+
+# Independent check of OUT against IN: every tet positive; the constrained
+# surface (faces on one tet, faces between different refs) the same set of
+# triangles at bit-identical coordinates with the same refs on either side;
+# volume per ref equal to 1e-9 relative.
+same_boundary() {
+  /usr/bin/python3 - "$1" "$2" <<'EOF'
+import sys
+import meshio, numpy as np
+F = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+def load(p):
+    m = meshio.read(p)
+    tets = np.vstack([c.data for c in m.cells if c.type == "tetra"])
+    ref = None
+    for key, blocks in m.cell_data.items():
+        arrs = [np.asarray(b) for b, c in zip(blocks, m.cells) if c.type == "tetra"]
+        if arrs and key in ("medit:ref", "ref", "gmsh:physical"):
+            ref = np.concatenate(arrs).astype(np.int64); break
+    if ref is None: ref = np.zeros(len(tets), np.int64)
+    return np.asarray(m.points, np.float64), tets.astype(np.int64), ref
+def vols(p, t):
+    a, b, c, d = (p[t[:, i]] for i in range(4))
+    return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a)) / 6
+def surface(p, t, ref):
+    faces = t[:, F].reshape(-1, 3); fref = np.repeat(ref, 4)
+    key = np.sort(faces, axis=1)
+    order = np.lexsort(key.T[::-1]); key = key[order]; fref = fref[order]
+    out = {}
+    i = 0
+    while i < len(key):
+        j = i + 1
+        while j < len(key) and (key[j] == key[i]).all(): j += 1
+        refs = sorted(fref[i:j].tolist())
+        if j - i == 1 or refs[0] != refs[-1]:
+            xyz = tuple(sorted(tuple(p[v].tobytes()) for v in key[i]))
+            out[xyz] = tuple(refs)
+        i = j
+    return out
+p0, t0, r0 = load(sys.argv[1]); p1, t1, r1 = load(sys.argv[2])
+v0, v1 = vols(p0, t0), vols(p1, t1)
+if (v1 <= 0).any(): print("  non-positive tets:", int((v1 <= 0).sum())); sys.exit(1)
+s0, s1 = surface(p0, t0, r0), surface(p1, t1, r1)
+if s0 != s1: print("  constrained surface differs:", len(set(s0) ^ set(s1)), "triangles"); sys.exit(1)
+for r in sorted(set(r0.tolist())):
+    a, b = v0[r0 == r].sum(), v1[r1 == r].sum()
+    if abs(a - b) > 1e-9 * abs(v0).sum(): print("  volume of ref", r, a, "->", b); sys.exit(1)
+print("  surface: %d triangles identical; %d -> %d tets, volume kept" % (len(s0), len(t0), len(t1)))
+EOF
+}
+referee() { [ ! -f "$REF" ] || /usr/bin/python3 "$REF" compare "$1" "$2" > "$W/ref.txt"; }
+
+"$T" generate "$W/a.mesh" --cells 12 12 12 --jitter 0.42 --regions 2 --seed 5 > /dev/null || { echo "FAIL generate"; exit 1; }
+"$T" generate "$W/b.mesh" --cells 16 16 8 --jitter 0.45 --seed 9 > /dev/null || { echo "FAIL generate"; exit 1; }
+[ "$(nonpos "$W/a.mesh")" = 0 ] && [ "$(nonpos "$W/b.mesh")" = 0 ] || { echo "FAIL generated meshes not positive"; exit 1; }
+
+# one run: NAME RANKS IN OUT SINGLE_OUT [extra options]
+run() {
+  local name=$1 np=$2 in=$3 out=$4 single=$5; shift 5
+  $MPIRUN -np "$np" "$M" improve "$in" -o "$out" -q "$@"; local rc=$?
+  check "$name: exit 0" '[ $rc -eq 0 ]'
+  [ $rc -eq 0 ] || return
+  check "$name: constrained surface, refs and volume kept (meshio)" 'same_boundary "$in" "$out"'
+  if [ -f "$REF" ]; then check "$name: meshcheck compare" 'referee "$in" "$out"'; fi
+  check "$name: no inverted or flat tet" '[ "$(nonpos "$out")" = 0 ]'
+  local w s
+  w=$(worst "$out"); s=$(worst "$single")
+  check "$name: worst alpha $w within 5% of single-process $s" 'within5 "$w" "$s"'
+  local w0; w0=$(worst "$in")
+  check "$name: worst alpha improved ($w0 -> $w)" '/usr/bin/python3 -c "import sys; sys.exit(0 if $w > 2 * $w0 else 1)"'
+}
+
+"$T" improve "$W/a.mesh" -o "$W/a_single.mesh" -q || { echo "FAIL single-process improve"; exit 1; }
+"$T" improve "$W/b.mesh" -o "$W/b_single.vtu" -q || { echo "FAIL single-process improve"; exit 1; }
+"$T" improve "$W/b.mesh" -o "$W/b_single_ins.mesh" -q --allow-insert || { echo "FAIL single-process improve"; exit 1; }
+
+run "two regions, -np 2" 2 "$W/a.mesh" "$W/a2.mesh" "$W/a_single.mesh" --report "$W/a2.json"
+run "two regions, -np 4" 4 "$W/a.mesh" "$W/a4.mesh" "$W/a_single.mesh" --per-rank "$W/parts"
+run "box, -np 4, .vtu output" 4 "$W/b.mesh" "$W/b4.vtu" "$W/b_single.vtu"
+run "box, -np 2, --allow-insert" 2 "$W/b.mesh" "$W/b2i.mesh" "$W/b_single_ins.mesh" --allow-insert --threads 2
+
+# The report says what happened: more than one round, bytes moved, parts of both ranks.
+check "report: rounds, bytes, two ranks with tets" '/usr/bin/python3 -c "
+import json, sys
+r = json.load(open(\"$W/a2.json\"))
+ok = r[\"ranks\"] == 2 and len(r[\"rounds\"]) >= 2 and r[\"bytes_scatter\"] > 0 and r[\"bytes_gather\"] > 0
+ok = ok and all(min(x[\"tets_per_rank\"]) > 0 for x in r[\"rounds\"]) and r[\"invariants_ok\"]
+ok = ok and r[\"rounds\"][1][\"refrozen_tets\"] < r[\"rounds\"][1][\"frozen_tets\"]
+sys.exit(0 if ok else 1)"'
+# Deterministic: the same run again gives the same bytes.
+$MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/a2b.mesh" -q
+check "-np 2 twice: identical output" 'cmp -s "$W/a2.mesh" "$W/a2b.mesh"'
+# Per-rank files: 4 pieces named by the .pvtu, tets adding up to the output's.
+check "--per-rank: 4 pieces + .pvtu, tets add up" '/usr/bin/python3 -c "
+import meshio, re, sys
+pv = open(\"$W/parts/parts.pvtu\").read()
+names = re.findall(r\"Source=\\\"([^\\\"]+)\\\"\", pv)
+n = sum(len(meshio.read(\"$W/parts/\" + s).cells_dict[\"tetra\"]) for s in names)
+out = meshio.read(\"$W/a4.mesh\").cells_dict[\"tetra\"]
+sys.exit(0 if len(names) == 4 and n == len(out) else 1)"'
+# Errors: unreadable input -> 2, bad option -> 1, nothing written.
+$MPIRUN -np 2 "$M" improve "$W/missing.mesh" -o "$W/x.mesh" -q 2>/dev/null; rc=$?
+check "missing input: exit 2, nothing written" '[ $rc -eq 2 ] && [ ! -e "$W/x.mesh" ]'
+$MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/x.mesh" --rounds 0 2>/dev/null; rc=$?
+check "--rounds 0: usage error (exit 1)" '[ $rc -eq 1 ] && [ ! -e "$W/x.mesh" ]'
+exit $fail
