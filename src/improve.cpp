@@ -14,6 +14,7 @@
 #include "tetopt/smooth.hpp"
 #include "tetopt/topo.hpp"
 #include "tetopt/untangle.hpp"
+#include "detail/parallel.hpp"
 
 namespace tetopt {
 
@@ -21,24 +22,12 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-double worst_alpha(const TetMesh& m) {
-  double w = INFINITY;
-  for (int32_t t = 0; t < m.nt(); ++t) w = std::min(w, tet_alpha(m, t));
-  return w;
-}
-
-int64_t count_below(const TetMesh& m, double gamma) {
-  int64_t n = 0;
-  for (int32_t t = 0; t < m.nt(); ++t) n += tet_alpha(m, t) < gamma;
-  return n;
-}
-
 // Runs the phases of one mode and accumulates counters and times in rep.
 class Driver {
  public:
   Driver(TetMesh& m, const ImproveOptions& o, ImproveReport& r, const LogFn& log,
          const std::atomic<bool>* interrupted)
-      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted) {
+      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted), threads_(detail::resolve_threads(o.threads)) {
     // The passes' own Info lines are detail at the driver's level.
     if (log_)
       sub_log_ = [this](LogLevel l, const std::string& s) { log_(l == LogLevel::Info ? LogLevel::Debug : l, s); };
@@ -66,7 +55,7 @@ class Driver {
 
   void smooth(const SmoothOptions& so) {
     const auto t = Clock::now();
-    SmoothStats st = smooth_pass(m_, so, sub_log_);
+    SmoothStats st = smooth_pass(m_, so, sub_log_, &alpha_);
     r_.smooth_moves += st.moves_applied;
     r_.smooth_tried += st.moves_tried;
     r_.seconds_smooth += since(t);
@@ -90,7 +79,8 @@ class Driver {
     to.worsen_bound = strict ? 0.0 : 0.5;
     to.quality_threshold = gamma;
     to.passes = 3;
-    TopoStats st = remove_all_boundary_tets(m_, to, sub_log_);
+    to.threads = threads_;
+    TopoStats st = remove_all_boundary_tets(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
   }
@@ -100,7 +90,8 @@ class Driver {
     TopoOptions to;
     to.quality_threshold = gamma;
     to.passes = 3;
-    TopoStats st = flip_pass(m_, to, sub_log_);
+    to.threads = threads_;
+    TopoStats st = flip_pass(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
   }
@@ -129,7 +120,7 @@ class Driver {
   // until Phi is empty, nothing changes, or `iterations` rounds.
   Status combined() {
     for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
-      const int64_t poor = count_below(m_, o_.threshold);
+      const int64_t poor = count_below(o_.threshold);
       progress("round " + std::to_string(round + 1) + ": " + std::to_string(poor) + " tets with alpha < " +
                std::to_string(o_.threshold));
       if (poor == 0) break;
@@ -155,13 +146,14 @@ class Driver {
     if (relax_wanted(m_)) {
       const auto t = Clock::now();
       const RelaxStats rs = relax_pass(m_, RelaxOptions{}, sub_log_);
+      alpha_.clear();
       r_.smooth_moves += rs.moves;
       r_.smooth_tried += rs.moves + rs.put_back;
       r_.seconds_smooth += since(t);
       if (!rs.status) return rs.status;
     }
     double gamma = o_.threshold;
-    double prev_worst = worst_alpha(m_);
+    double prev_worst = worst();
     int stale = 0;
     for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
       progress("round " + std::to_string(round + 1) + ": worst alpha " + std::to_string(prev_worst));
@@ -175,6 +167,7 @@ class Driver {
         InsertOptions io;
         io.quality_threshold = gamma;
         const InsertStats is = insert_pass(m_, io, sub_log_);
+        alpha_.clear();
         r_.insertions += is.inserted;
         r_.seconds_topo += since(t);
         if (!is.status) return is.status;
@@ -182,7 +175,7 @@ class Driver {
       smooth(smooth_opts(gamma, 3, false, o_.seed + static_cast<uint64_t>(round)));
       smooth(smooth_opts(gamma, 3, true, o_.seed + static_cast<uint64_t>(round)));
       r_.rounds = round + 1;
-      const double w = worst_alpha(m_);
+      const double w = worst();
       if (w <= prev_worst + 1e-6) {
         if (++stale >= 2) break;
         gamma = std::min(0.6, gamma + 0.1);
@@ -201,13 +194,32 @@ class Driver {
       d.measure = TopoMeasure::Dihedral;
       d.quality_threshold = 0.3;
       d.passes = 2;
-      d.alpha_floor = worst_alpha(m_);
+      d.threads = threads_;
+      d.alpha_floor = worst();
       const TopoStats st = dihedral_pass(m_, d, sub_log_);
+      alpha_.clear();
       add(st, since(t));
       r_.vertex_moves += st.vertex_moves;
       if (!st.status) return st.status;
     }
     return Status::success();
+  }
+
+  // The per-tet alpha cache shared by the topology and smoothing passes
+  // (filled on demand; every pass that edits the mesh outside them clears it).
+  void ensure_cache() {
+    if (static_cast<int32_t>(alpha_.size()) == m_.nt()) return;
+    alpha_.resize(m_.nt());
+    detail::parallel_for_each(m_.nt(), threads_,
+                              [&](int64_t t) { alpha_[t] = tet_alpha(m_, static_cast<int32_t>(t)); });
+  }
+  double worst() {
+    ensure_cache();
+    return alpha_.empty() ? INFINITY : *std::min_element(alpha_.begin(), alpha_.end());
+  }
+  int64_t count_below(double gamma) {
+    ensure_cache();
+    return std::count_if(alpha_.begin(), alpha_.end(), [&](double a) { return a < gamma; });
   }
 
   int64_t ops() const {
@@ -221,6 +233,8 @@ class Driver {
   const LogFn& log_;
   LogFn sub_log_;
   const std::atomic<bool>* stop_;
+  int threads_;
+  std::vector<double> alpha_;  // tet_alpha of every tet when its size is nt (see ensure_cache)
 };
 }  // namespace
 
@@ -239,7 +253,8 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
   const auto t0 = Clock::now();
   if (m.adj.size() != m.tets.size()) return Status::error(ErrorCode::Invariant, "improve: topology not built");
   rep = ImproveReport{};
-  rep.before = compute_stats(m);
+  const int threads = detail::resolve_threads(opt.threads);
+  rep.before = compute_stats(m, threads);
   InvariantSnapshot snap;
   if (opt.check_invariants) {
     const auto tc = Clock::now();
@@ -273,7 +288,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
     rep.invariant_message = s.message;
     if (!s) return s;
   }
-  rep.after = compute_stats(m);
+  rep.after = compute_stats(m, threads);
   rep.seconds_total = since(t0);
   return Status::success();
 }

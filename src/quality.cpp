@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "detail/parallel.hpp"
 #include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/mesh.hpp"
@@ -134,31 +135,63 @@ double tet_alpha(const TetMesh& m, int32_t t) {
   return alpha(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]));
 }
 
-QualityStats compute_stats(const TetMesh& m) {
+namespace {
+// Per-block partial statistics of compute_stats, merged in block order.
+struct StatsPart {
   QualityStats s;
-  const int32_t nt = m.nt();
-  s.tets = nt;
-  std::vector<uint8_t> used(m.nv(), 0);
   Sum all, bnd, inr;
-  s.alpha_worst = s.alpha_boundary_worst = s.alpha_interior_worst = INFINITY;
-  s.dihedral_min = INFINITY;
-  s.dihedral_max = -INFINITY;
-  s.mean_ratio_worst = s.radius_ratio_worst = INFINITY;
-  std::set<int32_t> refs;
-  const bool have_kind = static_cast<int32_t>(m.tet_kind.size()) == nt;
   double cos_min_dih = -2, cos_max_dih = 2;  // largest / smallest cosine seen
-  int32_t min_dih_tet = -1, max_dih_tet = -1, last_ref = 0;
-  for (int32_t t = 0; t < nt; ++t) {
+  int32_t min_dih_tet = -1, max_dih_tet = -1;
+  std::set<int32_t> refs;
+  StatsPart() {
+    s.alpha_worst = s.alpha_boundary_worst = s.alpha_interior_worst = INFINITY;
+    s.mean_ratio_worst = s.radius_ratio_worst = INFINITY;
+  }
+};
+
+void add_sum(Sum& a, const Sum& b) {
+  a.add(b.s);
+  a.add(b.c);
+}
+
+// a then b (b's tets come after a's): "first tet wins" ties stay as serial.
+void merge(StatsPart& a, const StatsPart& b) {
+  for (int k = 0; k < 5; ++k) a.s.kind_count[k] += b.s.kind_count[k];
+  add_sum(a.all, b.all);
+  add_sum(a.bnd, b.bnd);
+  add_sum(a.inr, b.inr);
+  if (b.s.alpha_worst < a.s.alpha_worst) { a.s.alpha_worst = b.s.alpha_worst; a.s.worst_tet = b.s.worst_tet; }
+  a.s.alpha_boundary_worst = std::min(a.s.alpha_boundary_worst, b.s.alpha_boundary_worst);
+  a.s.alpha_interior_worst = std::min(a.s.alpha_interior_worst, b.s.alpha_interior_worst);
+  a.s.inverted_or_flat += b.s.inverted_or_flat;
+  a.s.alpha_below_01 += b.s.alpha_below_01;
+  a.s.alpha_below_02 += b.s.alpha_below_02;
+  a.s.alpha_below_03 += b.s.alpha_below_03;
+  for (size_t k = 0; k < a.s.alpha_histogram.size(); ++k) a.s.alpha_histogram[k] += b.s.alpha_histogram[k];
+  for (size_t k = 0; k < a.s.dihedral_histogram.size(); ++k) a.s.dihedral_histogram[k] += b.s.dihedral_histogram[k];
+  if (b.cos_min_dih > a.cos_min_dih) { a.cos_min_dih = b.cos_min_dih; a.min_dih_tet = b.min_dih_tet; }
+  if (b.cos_max_dih < a.cos_max_dih) { a.cos_max_dih = b.cos_max_dih; a.max_dih_tet = b.max_dih_tet; }
+  a.s.dihedral_below_5 += b.s.dihedral_below_5;
+  a.s.dihedral_above_175 += b.s.dihedral_above_175;
+  a.s.mean_ratio_worst = std::min(a.s.mean_ratio_worst, b.s.mean_ratio_worst);
+  a.s.radius_ratio_worst = std::min(a.s.radius_ratio_worst, b.s.radius_ratio_worst);
+  a.refs.insert(b.refs.begin(), b.refs.end());
+}
+
+void stats_block(const TetMesh& m, int32_t t0, int32_t t1, StatsPart& p) {
+  QualityStats& s = p.s;
+  const bool have_kind = static_cast<int32_t>(m.tet_kind.size()) == m.nt();
+  int32_t last_ref = 0;
+  for (int32_t t = t0; t < t1; ++t) {
     const int32_t* v = m.tet(t);
-    for (int k = 0; k < 4; ++k) used[v[k]] = 1;
     const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
     const double q = alpha(a, b, c, d);
     const int kind = have_kind ? m.tet_kind[t] : 0;
     s.kind_count[kind]++;
-    all.add(q);
+    p.all.add(q);
     if (q < s.alpha_worst) { s.alpha_worst = q; s.worst_tet = t; }
-    if (kind > 0) { bnd.add(q); s.alpha_boundary_worst = std::min(s.alpha_boundary_worst, q); }
-    else { inr.add(q); s.alpha_interior_worst = std::min(s.alpha_interior_worst, q); }
+    if (kind > 0) { p.bnd.add(q); s.alpha_boundary_worst = std::min(s.alpha_boundary_worst, q); }
+    else { p.inr.add(q); s.alpha_interior_worst = std::min(s.alpha_interior_worst, q); }
     if (q <= 0) s.inverted_or_flat++;
     if (q < 0.1) s.alpha_below_01++;
     if (q < 0.2) s.alpha_below_02++;
@@ -169,11 +202,11 @@ QualityStats compute_stats(const TetMesh& m) {
     // (atan2, dihedral_angles) only for the extreme tets at the end.
     double n[4][3], nl[4];
     {
-      const double* p[4] = {a, b, c, d};
+      const double* pt[4] = {a, b, c, d};
       for (int f = 0; f < 4; ++f) {
         double e1[3], e2[3];
-        sub(p[kFaceVertex[f][1]], p[kFaceVertex[f][0]], e1);
-        sub(p[kFaceVertex[f][2]], p[kFaceVertex[f][0]], e2);
+        sub(pt[kFaceVertex[f][1]], pt[kFaceVertex[f][0]], e1);
+        sub(pt[kFaceVertex[f][2]], pt[kFaceVertex[f][0]], e2);
         cross(e1, e2, n[f]);
         nl[f] = norm(n[f]);
       }
@@ -184,8 +217,8 @@ QualityStats compute_stats(const TetMesh& m) {
       const double den = nl[k] * nl[l];
       double cs = den > 0 ? -dot(n[k], n[l]) / den : 1.0;
       cs = std::clamp(cs, -1.0, 1.0);
-      if (cs > cos_min_dih) { cos_min_dih = cs; min_dih_tet = t; }
-      if (cs < cos_max_dih) { cos_max_dih = cs; max_dih_tet = t; }
+      if (cs > p.cos_min_dih) { p.cos_min_dih = cs; p.min_dih_tet = t; }
+      if (cs < p.cos_max_dih) { p.cos_max_dih = cs; p.max_dih_tet = t; }
       // bin k holds angles in [10k, 10k+10): count thresholds cos(10j deg) >= cs
       const int dbin = static_cast<int>(std::upper_bound(kBinCos.begin(), kBinCos.end(), cs,
                                                         [](double x, double y) { return x > y; }) -
@@ -199,9 +232,31 @@ QualityStats compute_stats(const TetMesh& m) {
     s.mean_ratio_worst = std::min(s.mean_ratio_worst, mean_ratio(a, b, c, d));
     s.radius_ratio_worst = std::min(s.radius_ratio_worst, radius_ratio(a, b, c, d));
     const int32_t r = m.tet_ref.empty() ? 0 : m.tet_ref[t];
-    if (t == 0 || r != last_ref) refs.insert(r);
+    if (t == t0 || r != last_ref) p.refs.insert(r);
     last_ref = r;
   }
+}
+}  // namespace
+
+QualityStats compute_stats(const TetMesh& m, int threads) {
+  const int32_t nt = m.nt();
+  // Fixed blocks merged in order: the same numbers for every thread count.
+  const int64_t nb = (static_cast<int64_t>(nt) + detail::kBlock - 1) / detail::kBlock;
+  std::vector<StatsPart> parts(static_cast<size_t>(nb));
+  detail::parallel_blocks(nt, threads, [&](int64_t b, int64_t e) {
+    stats_block(m, static_cast<int32_t>(b), static_cast<int32_t>(e), parts[static_cast<size_t>(b / detail::kBlock)]);
+  });
+  StatsPart all;
+  for (const StatsPart& p : parts) merge(all, p);
+  QualityStats& s = all.s;
+  s.tets = nt;
+  s.dihedral_min = INFINITY;
+  s.dihedral_max = -INFINITY;
+  std::vector<uint8_t> used(m.nv(), 0);
+  for (int32_t v : m.tets) used[v] = 1;
+  const int32_t min_dih_tet = all.min_dih_tet, max_dih_tet = all.max_dih_tet;
+  const std::set<int32_t>& refs = all.refs;
+  const Sum &all_sum = all.all, &bnd = all.bnd, &inr = all.inr;
   auto extreme = [&](int32_t t, bool want_min) {
     const int32_t* v = m.tet(t);
     double dh[6];
@@ -214,12 +269,12 @@ QualityStats compute_stats(const TetMesh& m) {
   s.boundary_tets = nt - s.kind_count[0];
   s.all_boundary_tets = s.kind_count[4];
   s.regions = static_cast<int64_t>(refs.size());
-  s.alpha_mean = nt ? all.value() / nt : NAN;
+  s.alpha_mean = nt ? all_sum.value() / nt : NAN;
   s.alpha_boundary_mean = s.boundary_tets ? bnd.value() / s.boundary_tets : NAN;
   s.alpha_interior_mean = s.kind_count[0] ? inr.value() / s.kind_count[0] : NAN;
   if (!s.boundary_tets) s.alpha_boundary_worst = NAN;
   if (!s.kind_count[0]) s.alpha_interior_worst = NAN;
-  return s;
+  return all.s;
 }
 
 TetQualityFields compute_fields(const TetMesh& m) {

@@ -17,11 +17,13 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <utility>
 
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
+#include "detail/parallel.hpp"
 
 namespace tetopt {
 
@@ -99,14 +101,20 @@ struct TopoEditor::Candidate {
   uint8_t outer_mask[kMaxOuter];  // 1 when constrained
 };
 
-TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : m_(m), o_(o) {
+TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : TopoEditor(m, o, nullptr) {}
+
+TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o, std::vector<double>* alpha_cache) : m_(m), o_(o) {
   o_.max_shell = std::clamp(o_.max_shell, 3, kMaxShell);
   const int32_t nt = m_.nt();
-  alpha_.resize(nt);
-  for (int32_t t = 0; t < nt; ++t) {
-    const int32_t* v = m_.tet(t);
-    alpha_[t] = quality(m_.point(v[0]), m_.point(v[1]), m_.point(v[2]), m_.point(v[3]));
+  // A shared cache stands for quality() only with the plain alpha measure.
+  if (alpha_cache) {
+    if (o_.measure == TopoMeasure::Alpha && !(o_.alpha_floor > -1e300)) {
+      shared_ = alpha_cache;
+      if (static_cast<int32_t>(shared_->size()) == nt) alpha_.swap(*shared_);
+    }
+    alpha_cache->clear();
   }
+  if (static_cast<int32_t>(alpha_.size()) != nt) fill_cache();
   for (int32_t i = 0; i + 1 < static_cast<int32_t>(m_.edges.size()); i += 2)
     listed_edges_.push_back(edge_key(m_.edges[i], m_.edges[i + 1]));
   std::sort(listed_edges_.begin(), listed_edges_.end());
@@ -125,6 +133,40 @@ TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : m_(m), o_(o) {
   cand_ = new Candidate;
   best_ = new Candidate;
   stats_.tets_before = nt;
+}
+
+void TopoEditor::fill_cache() {
+  const int32_t nt = m_.nt();
+  alpha_.resize(nt);
+  // Dihedral measure: every dihedral angle theta of a tet satisfies
+  // sin(theta) >= alpha / sqrt(6).  (V = 2 A1 A2 sin(theta) / (3 |e|) for the
+  // faces A1, A2 at edge e; A1 <= |e| Lmax / 2; A2 <= (sum of areas) / 2;
+  // put into alpha = 6 sqrt(6) V / (sum of areas * Lmax).)  So the measure is
+  // at least phi / max(lo, 180 - hi) with phi = asin(alpha / sqrt(6)) in
+  // degrees, and a tet whose bound reaches the threshold is never visited
+  // for being poor: its measure (6 atan2) is computed only if a cavity needs
+  // it.  On the demo impeller most tets are deferred.
+  const double denom = std::max(o_.dihedral_lo, 180.0 - o_.dihedral_hi);
+  const bool defer = o_.measure == TopoMeasure::Dihedral && denom > 0 && o_.dihedral_lo > 0;
+  if (defer) lb_.resize(nt);
+  detail::parallel_for_each(nt, o_.threads, [&](int64_t i) {
+    const auto t = static_cast<int32_t>(i);
+    const int32_t* v = m_.tet(t);
+    const double *a = m_.point(v[0]), *b = m_.point(v[1]), *c = m_.point(v[2]), *d = m_.point(v[3]);
+    if (defer) {
+      const double al = alpha(a, b, c, d);
+      if (al >= o_.alpha_floor && al > 0) {
+        const double phi = std::asin(std::min(1.0, al / std::sqrt(6.0))) * (180.0 / std::numbers::pi);
+        const double lb = phi / denom * (1.0 - 1e-6);  // margin for rounding
+        if (lb >= o_.quality_threshold) {
+          alpha_[t] = std::numeric_limits<double>::quiet_NaN();
+          lb_[t] = lb;
+          return;
+        }
+      }
+    }
+    alpha_[t] = quality(a, b, c, d);
+  });
 }
 
 TopoEditor::~TopoEditor() {
@@ -148,6 +190,21 @@ double TopoEditor::quality(const double* a, const double* b, const double* c, co
   double q = kInf;
   for (double x : deg) q = std::min({q, x / o_.dihedral_lo, (180.0 - x) / (180.0 - o_.dihedral_hi)});
   return q;
+}
+
+double TopoEditor::deferred(int32_t t) const {
+  const int32_t* v = m_.tet(t);
+  return alpha_[t] = quality(m_.point(v[0]), m_.point(v[1]), m_.point(v[2]), m_.point(v[3]));
+}
+
+double TopoEditor::min_cached() const {
+  double lo = kInf;
+  const int32_t nt = m_.nt();
+  for (int32_t t = 0; t < nt; ++t)
+    if (alive(t) && alpha_[t] == alpha_[t]) lo = std::min(lo, alpha_[t]);
+  for (int32_t t = 0; t < nt; ++t)
+    if (alive(t) && alpha_[t] != alpha_[t] && lb_[t] < lo) lo = std::min(lo, deferred(t));
+  return lo;
 }
 
 bool TopoEditor::alive(int32_t t) const {
@@ -216,7 +273,7 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   c.k4_old = 0;
   for (int i = 0; i < n; ++i) {
     c.old_tets[i] = shell[i];
-    c.old_min = std::min(c.old_min, alpha_[shell[i]]);
+    c.old_min = std::min(c.old_min, cached_alpha(shell[i]));
     c.k4_old += m_.tet_kind[shell[i]] == 4;
   }
 
@@ -393,7 +450,7 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
     const Tri& r = tri[chosen[i]];
     for (int32_t o : {r.up, r.lo}) {
       c.old_tets[c.n_old++] = o;
-      c.old_min = std::min(c.old_min, alpha_[o]);
+      c.old_min = std::min(c.old_min, cached_alpha(o));
       c.k4_old += m_.tet_kind[o] == 4;
     }
     for (int k = 0; k < 3; ++k) {
@@ -823,7 +880,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   c.k4_old = 0;
   for (int i = 0; i < c.n_old; ++i) {
     c.old_tets[i] = best_old[i];
-    c.old_min = std::min(c.old_min, alpha_[c.old_tets[i]]);
+    c.old_min = std::min(c.old_min, cached_alpha(c.old_tets[i]));
     c.k4_old += m_.tet_kind[c.old_tets[i]] == 4;
   }
   nf = best_nf;
@@ -908,7 +965,10 @@ void TopoEditor::finish() {
   if (finished_) return;
   finished_ = true;
   stats_.tets_after = m_.nt();
-  if (stats_.applied() == 0) return;  // nothing changed: derived topology is still current
+  if (stats_.applied() == 0) {  // nothing changed: derived topology is still current
+    if (shared_) shared_->swap(alpha_);
+    return;
+  }
   // Compact tombstones: move the last live tet into each hole (ascending).
   std::sort(free_.begin(), free_.end());
   int32_t nt = m_.nt();
@@ -928,6 +988,7 @@ void TopoEditor::finish() {
     if (has_entity) m_.tet_entity[h] = m_.tet_entity[l];
     m_.face_mask[h] = m_.face_mask[l];
     m_.tet_kind[h] = m_.tet_kind[l];
+    alpha_[h] = alpha_[l];
     --nt;
   }
   while (nt > 0 && m_.tets[4 * static_cast<size_t>(nt - 1)] < 0) --nt;
@@ -938,6 +999,8 @@ void TopoEditor::finish() {
   if (has_entity) m_.tet_entity.resize(nt);
   m_.face_mask.resize(nt);
   m_.tet_kind.resize(nt);
+  alpha_.resize(nt);
+  if (shared_) shared_->swap(alpha_);
   // face_mask and tet_kind were kept right by commit() (new interior faces
   // are free, outer faces keep their bit, vertex flags never change), so
   // classify() (O(nt) with a binary search per listed-triangle lookup) is not
@@ -975,7 +1038,8 @@ bool topology_current(const TetMesh& m) {
 
 enum class PassKind { AllBoundary, Quality };
 
-TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKind kind) {
+TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKind kind,
+                     std::vector<double>* alpha_cache) {
   const auto t0 = std::chrono::steady_clock::now();
   TopoStats st;
   if (!topology_current(m)) {
@@ -984,12 +1048,9 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
   }
   st.tets_before = m.nt();
   {
-    TopoEditor ed(m, o);
-    st.alpha_worst_before = kInf;
-    for (int32_t t = 0; t < m.nt(); ++t) {
-      st.kind4_before += m.tet_kind[t] == 4;
-      st.alpha_worst_before = std::min(st.alpha_worst_before, ed.cached_alpha(t));
-    }
+    TopoEditor ed(m, o, alpha_cache);
+    for (int32_t t = 0; t < m.nt(); ++t) st.kind4_before += m.tet_kind[t] == 4;
+    st.alpha_worst_before = ed.min_cached();
     std::vector<int32_t> work;
     uint32_t prev_stamp = 0;
     for (int p = 0; p < o.passes; ++p) {
@@ -1001,7 +1062,7 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
       for (int32_t t = 0; t < m.nt(); ++t) {
         if (!ed.alive(t)) continue;
         if (p > 0 && !ed.touched_since(t, prev_stamp)) continue;
-        if (ed.cached_alpha(t) < o.quality_threshold && (kind == PassKind::Quality || m.tet_kind[t] == 4))
+        if ((kind == PassKind::Quality || m.tet_kind[t] == 4) && ed.below(t, o.quality_threshold))
           work.push_back(t);
       }
       prev_stamp = stamp;
@@ -1009,13 +1070,13 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
       for (int32_t t : work) {
         if (!ed.alive(t)) continue;
         if (kind == PassKind::AllBoundary) {
-          if (m.tet_kind[t] != 4 || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
+          if (m.tet_kind[t] != 4 || !ed.below(t, o.quality_threshold)) continue;
           if (ed.improve_tet(t, false) == TopoResult::Applied) {
             ++changed;
             ++ed.stats().all_boundary_removed;
           }
         } else {
-          if (!(ed.cached_alpha(t) < o.quality_threshold)) continue;
+          if (!ed.below(t, o.quality_threshold)) continue;
           if (ed.improve_tet(t, true) == TopoResult::Applied) ++changed;
         }
       }
@@ -1026,9 +1087,7 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
                                 " tets visited, " + std::to_string(changed) + " operations applied");
       if (changed == 0) break;
     }
-    st.alpha_worst_after = kInf;
-    for (int32_t t = 0; t < m.nt(); ++t)
-      if (ed.alive(t)) st.alpha_worst_after = std::min(st.alpha_worst_after, ed.cached_alpha(t));
+    st.alpha_worst_after = ed.min_cached();
     ed.finish();
     for (int32_t t = 0; t < m.nt(); ++t) st.kind4_after += m.tet_kind[t] == 4;
     const TopoStats& es = ed.stats();
@@ -1049,11 +1108,20 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
 }  // namespace
 
 TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o, const LogFn& log) {
-  return run_passes(m, o, log, PassKind::AllBoundary);
+  return run_passes(m, o, log, PassKind::AllBoundary, nullptr);
+}
+
+TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o, const LogFn& log,
+                                   std::vector<double>* alpha_cache) {
+  return run_passes(m, o, log, PassKind::AllBoundary, alpha_cache);
 }
 
 TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
-  return run_passes(m, o, log, PassKind::Quality);
+  return run_passes(m, o, log, PassKind::Quality, nullptr);
+}
+
+TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log, std::vector<double>* alpha_cache) {
+  return run_passes(m, o, log, PassKind::Quality, alpha_cache);
 }
 
 namespace {
@@ -1132,14 +1200,21 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   TopoOptions d = o;
   d.measure = TopoMeasure::Dihedral;
   double worst = kInf;
-  for (int32_t t = 0; t < m.nt(); ++t) worst = std::min(worst, tet_alpha(m, t));
+  worst = detail::parallel_reduce_blocks(
+      m.nt(), o.threads, kInf,
+      [&](int64_t b, int64_t e) {
+        double w = kInf;
+        for (int64_t t = b; t < e; ++t) w = std::min(w, tet_alpha(m, static_cast<int32_t>(t)));
+        return w;
+      },
+      [](double x, double y) { return std::min(x, y); });
   // Default floor: the current worst alpha (never lowered).  A caller may
   // trade some worst alpha for angles by giving a lower floor explicitly.
   if (!(d.alpha_floor > -1e300)) d.alpha_floor = worst;
   TopoStats total;
   int64_t moves = 0;
   for (int round = 0; round < std::max(1, d.passes); ++round) {
-    TopoStats st = run_passes(m, d, log, PassKind::Quality);
+    TopoStats st = run_passes(m, d, log, PassKind::Quality, nullptr);
     if (!st.status) return st;
     if (round == 0) {
       total = st;
@@ -1156,7 +1231,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
       TopoEditor q(m, d);  // measure evaluator (no edits: finish() is a no-op)
       std::vector<uint8_t> seen(m.nv(), 0);
       for (int32_t t = 0; t < m.nt(); ++t) {
-        if (!(q.cached_alpha(t) < d.quality_threshold)) continue;
+        if (!q.below(t, d.quality_threshold)) continue;
         for (int k = 0; k < 4; ++k) {
           const int32_t v = m.tet(t)[k];
           if (seen[v]) continue;
@@ -1173,8 +1248,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   }
   {
     TopoEditor q(m, d);
-    total.alpha_worst_after = kInf;
-    for (int32_t t = 0; t < m.nt(); ++t) total.alpha_worst_after = std::min(total.alpha_worst_after, q.cached_alpha(t));
+    total.alpha_worst_after = q.min_cached();
   }
   total.vertex_moves = moves;
   total.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -60,7 +60,9 @@ struct QualityStats {
   int32_t worst_tet = -1;
 };
 
-QualityStats compute_stats(const TetMesh& m);
+/// threads: worker threads for the loop over tets; the result is the same
+/// for every count (fixed blocks merged in order).
+QualityStats compute_stats(const TetMesh& m, int threads = 1);
 
 /// Per-tet arrays (nt each) for fields and reports.
 struct TetQualityFields {

@@ -123,6 +123,9 @@ struct TopoOptions {
   bool use_face_swap = true;       ///< 2-3 flips (multi-face removal with one face)
   bool use_edge_removal = true;    ///< edge removal, 3-2 and 4-4 included
   bool use_multi_face = true;      ///< multi-face removal with two or more faces
+  /// Threads for the O(nt) set-up loops (the measure cache); the operations
+  /// themselves run in index order on one thread.  Results do not depend on it.
+  int threads = 1;
 };
 
 /// Counters of applied operations.
@@ -156,6 +159,12 @@ struct TopoStats {
 class TopoEditor {
  public:
   TopoEditor(TetMesh& m, const TopoOptions& o);
+  /// With a caller-owned alpha cache (see flip_pass): used as the measure
+  /// cache when the measure is Alpha with no floor and its size is m.nt()
+  /// (entries trusted to equal tet_alpha), and handed back by finish(),
+  /// compacted with the tets, holding tet_alpha of every tet bit for bit.
+  /// Otherwise the cache is cleared and the editor computes its own.
+  TopoEditor(TetMesh& m, const TopoOptions& o, std::vector<double>* alpha_cache);
   ~TopoEditor();
   TopoEditor(const TopoEditor&) = delete;
   TopoEditor& operator=(const TopoEditor&) = delete;
@@ -197,7 +206,21 @@ class TopoEditor {
   /// The option's measure of tet (a, b, c, d) (alpha by default), -inf below
   /// TopoOptions::alpha_floor.  cached_alpha() holds this measure.
   double quality(const double* a, const double* b, const double* c, const double* d) const;
-  double cached_alpha(int32_t t) const { return alpha_[t]; }
+  double cached_alpha(int32_t t) const {
+    const double a = alpha_[t];
+    return a == a ? a : deferred(t);
+  }
+  /// cached_alpha(t) < thr, without computing a deferred dihedral measure
+  /// whose lower bound already answers no.
+  bool below(int32_t t, double thr) const {
+    const double a = alpha_[t];
+    if (a == a) return a < thr;
+    if (lb_[t] >= thr) return false;
+    return deferred(t) < thr;
+  }
+  /// Smallest cached measure over the live tets (deferred entries are
+  /// computed only when their lower bound could beat the minimum).
+  double min_cached() const;
   /// Starts a new change epoch and returns it: every commit stamps the
   /// vertices of its new tets with the current epoch.
   uint32_t next_stamp() { return ++stamp_; }
@@ -223,9 +246,17 @@ class TopoEditor {
   void commit(const Candidate& c);
   void count(const Candidate& c);
 
+  double deferred(int32_t t) const;
+  void fill_cache();
+
   TetMesh& m_;
   TopoOptions o_;
-  std::vector<double> alpha_;
+  // Per-tet measure.  With the dihedral measure a tet whose alpha proves its
+  // measure >= the pass threshold is deferred: NaN here, the proven lower
+  // bound in lb_, computed on first use (see the constructor).
+  mutable std::vector<double> alpha_;
+  std::vector<double> lb_;
+  std::vector<double>* shared_ = nullptr;  // caller's alpha cache, given back by finish()
   std::vector<int32_t> free_;
   std::vector<uint32_t> vstamp_;  // per vertex: epoch of the last commit touching it
   uint32_t stamp_ = 1;
@@ -271,5 +302,14 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o = {}, const LogFn& log 
 /// (index order), commits the best operation touching it that raises the
 /// worst alpha of its cavity by more than o.margin.
 TopoStats flip_pass(TetMesh& m, const TopoOptions& o = {}, const LogFn& log = {});
+
+/// remove_all_boundary_tets and flip_pass with a caller-owned per-tet alpha
+/// cache shared with smooth_pass (smooth.hpp): when its size is m.nt() its
+/// entries are trusted to equal tet_alpha(m, t), otherwise it is filled; on
+/// return it holds tet_alpha(m, t) of the new tets, bit for bit.  Saves the
+/// O(nt) quality evaluation of every pass.  nullptr: as above.
+TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o, const LogFn& log,
+                                   std::vector<double>* alpha_cache);
+TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log, std::vector<double>* alpha_cache);
 
 }  // namespace tetopt

@@ -1,0 +1,75 @@
+// Deterministic data-parallel loops over index ranges, on oneTBB (Debian
+// libtbb-dev) when the build found it, serial otherwise.
+//
+// Determinism: [0, n) is cut into fixed blocks of `kBlock` indices whatever
+// the thread count; a loop body may write only data owned by its indices, and
+// a reduction combines the per-block results serially in block order.  So a
+// floating-point sum is the same for 1, 2 or 16 threads (bit for bit), and
+// so is everything computed from it.
+#pragma once
+#include <algorithm>
+#include <cstdint>
+#include <thread>
+#include <vector>
+
+#ifdef TETOPT_HAVE_TBB
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#endif
+
+namespace tetopt::detail {
+
+inline constexpr int64_t kBlock = 8192;
+
+/// A thread-count option: > 0 as given, otherwise the hardware's count.
+inline int resolve_threads(int t) {
+  if (t > 0) return t;
+  const unsigned h = std::thread::hardware_concurrency();
+  return h > 0 ? static_cast<int>(h) : 1;
+}
+
+/// Calls body(begin, end) for consecutive blocks covering [0, n), on up to
+/// `threads` threads (<= 1: the calling thread only).
+template <class Body>
+void parallel_blocks(int64_t n, int threads, const Body& body) {
+  if (n <= 0) return;
+  const int64_t nb = (n + kBlock - 1) / kBlock;
+#ifdef TETOPT_HAVE_TBB
+  if (threads > 1 && nb > 1) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<int64_t>(0, nb, 1), [&](const tbb::blocked_range<int64_t>& r) {
+        for (int64_t b = r.begin(); b < r.end(); ++b) body(b * kBlock, std::min(n, (b + 1) * kBlock));
+      });
+    });
+    return;
+  }
+#endif
+  (void)threads;
+  for (int64_t b = 0; b < nb; ++b) body(b * kBlock, std::min(n, (b + 1) * kBlock));
+}
+
+/// Calls f(i) for every i in [0, n) (see parallel_blocks).
+template <class F>
+void parallel_for_each(int64_t n, int threads, const F& f) {
+  parallel_blocks(n, threads, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) f(i);
+  });
+}
+
+/// Reduction with a result independent of the thread count: block_fn(begin,
+/// end) -> T per block, then join(acc, block_result) in block order,
+/// starting from init.
+template <class T, class BlockFn, class Join>
+T parallel_reduce_blocks(int64_t n, int threads, T init, const BlockFn& block_fn, const Join& join) {
+  if (n <= 0) return init;
+  const int64_t nb = (n + kBlock - 1) / kBlock;
+  std::vector<T> part(static_cast<size_t>(nb), init);
+  parallel_blocks(n, threads, [&](int64_t b, int64_t e) { part[static_cast<size_t>(b / kBlock)] = block_fn(b, e); });
+  T acc = init;
+  for (const T& p : part) acc = join(acc, p);
+  return acc;
+}
+
+}  // namespace tetopt::detail
