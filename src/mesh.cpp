@@ -3,12 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
 
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
+#include "detail/parallel.hpp"
 
 namespace tetopt {
 
@@ -127,9 +129,21 @@ void build_vertex_tets(TetMesh& m) {
     for (int k = 0; k < 4; ++k) m.vt_tets[fill[m.tets[4 * static_cast<size_t>(t) + k]]++] = t;
 }
 
-Status build_adjacency(TetMesh& m) {
+namespace {
+// An error found in a parallel block, with the position it was found at so
+// that the first one in serial order is reported whatever the thread count.
+struct FirstError {
+  int64_t at = std::numeric_limits<int64_t>::max();
+  Status status;
+};
+FirstError earlier(const FirstError& a, const FirstError& b) { return b.at < a.at ? b : a; }
+}  // namespace
+
+Status build_adjacency(TetMesh& m, int threads) {
   // Faces are bucketed by their smallest vertex (counting sort), then each
-  // small bucket is sorted by the two other vertices; equal neighbours pair up.
+  // small bucket is sorted by the two other vertices; equal neighbours pair
+  // up.  The buckets are independent (every face is in one), so they are
+  // sorted and paired in parallel blocks of vertices.
   const int32_t nv = m.nv(), nt = m.nt();
   const size_t nf = 4 * static_cast<size_t>(nt);
   std::vector<int32_t> off(static_cast<size_t>(nv) + 1, 0);
@@ -156,7 +170,7 @@ Status build_adjacency(TetMesh& m) {
       }
   }
   m.adj.assign(nf, -1);
-  for (int32_t v = 0; v < nv; ++v) {
+  auto bucket = [&](int32_t v) -> Status {
     Entry* b = ent.get() + off[v];
     Entry* e = ent.get() + off[v + 1];
     std::sort(b, e, [](const Entry& x, const Entry& y) {
@@ -193,21 +207,38 @@ Status build_adjacency(TetMesh& m) {
       }
       p = q;
     }
-  }
+    return Status::success();
+  };
+  FirstError err = detail::parallel_reduce_blocks(
+      nv, threads, FirstError{},
+      [&](int64_t b, int64_t e) {
+        for (int64_t v = b; v < e; ++v)
+          if (Status s = bucket(static_cast<int32_t>(v)); !s) return FirstError{v, s};
+        return FirstError{};
+      },
+      earlier);
+  if (!err.status) return err.status;
   // Two tets sharing two faces have the same four vertices: a duplicate.
-  for (int32_t t = 0; t < nt; ++t)
-    for (int f = 0; f < 4; ++f)
-      for (int g = f + 1; g < 4; ++g) {
-        const int32_t a = m.adj[4 * t + f], b = m.adj[4 * t + g];
-        if (a >= 0 && b >= 0 && a / 4 == b / 4)
-          return Status::error(ErrorCode::InvalidMesh, "tetrahedra " + std::to_string(t + 1) + " and " +
-                                                           std::to_string(a / 4 + 1) +
-                                                           " have the same four vertices (duplicate tetrahedron)");
-      }
-  return Status::success();
+  err = detail::parallel_reduce_blocks(
+      nt, threads, FirstError{},
+      [&](int64_t b, int64_t e) {
+        for (int64_t t = b; t < e; ++t)
+          for (int f = 0; f < 4; ++f)
+            for (int g = f + 1; g < 4; ++g) {
+              const int32_t x = m.adj[4 * t + f], y = m.adj[4 * t + g];
+              if (x >= 0 && y >= 0 && x / 4 == y / 4)
+                return FirstError{t, Status::error(ErrorCode::InvalidMesh,
+                                                   "tetrahedra " + std::to_string(t + 1) + " and " +
+                                                       std::to_string(x / 4 + 1) +
+                                                       " have the same four vertices (duplicate tetrahedron)")};
+            }
+        return FirstError{};
+      },
+      earlier);
+  return err.status;
 }
 
-void classify(TetMesh& m) {
+void classify(TetMesh& m, int threads) {
   const int32_t nv = m.nv(), nt = m.nt();
   m.face_mask.assign(nt, 0);
   m.vert_constrained.assign(nv, 0);
@@ -234,7 +265,10 @@ void classify(TetMesh& m) {
     });
   };
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
-  for (int32_t t = 0; t < nt; ++t) {
+  // Face masks in parallel (each tet writes its own), then the vertices of
+  // the constrained faces serially (few, and shared between tets).
+  detail::parallel_for_each(nt, threads, [&](int64_t ti) {
+    const auto t = static_cast<int32_t>(ti);
     uint8_t mask = 0;
     for (int f = 0; f < 4; ++f) {
       const int32_t n = m.adj[4 * t + f];
@@ -246,30 +280,34 @@ void classify(TetMesh& m) {
         face_key(m, t, f, k);
         c = is_listed(k);
       }
-      if (c) {
-        mask |= static_cast<uint8_t>(1u << f);
-        const int32_t* v = m.tet(t);
-        for (int i = 0; i < 3; ++i) m.vert_constrained[v[kFaceVertex[f][i]]] = 1;
-      }
+      if (c) mask |= static_cast<uint8_t>(1u << f);
     }
     m.face_mask[t] = mask;
+  });
+  for (int32_t t = 0; t < nt; ++t) {
+    const uint8_t mask = m.face_mask[t];
+    if (!mask) continue;
+    const int32_t* v = m.tet(t);
+    for (int f = 0; f < 4; ++f)
+      if (mask & (1u << f))
+        for (int i = 0; i < 3; ++i) m.vert_constrained[v[kFaceVertex[f][i]]] = 1;
   }
   for (int32_t v : m.required_vertices) m.vert_constrained[v] = 1;
   for (int32_t v : m.corners) m.vert_constrained[v] = 1;
   for (int32_t v : m.edges) m.vert_constrained[v] = 1;
   for (int32_t i : m.required_tris)
     for (int k = 0; k < 3; ++k) m.vert_constrained[m.tris[3 * i + k]] = 1;
-  for (int32_t t = 0; t < nt; ++t) {
-    const int32_t* v = m.tet(t);
+  detail::parallel_for_each(nt, threads, [&](int64_t t) {
+    const int32_t* v = m.tet(static_cast<int32_t>(t));
     m.tet_kind[t] = static_cast<uint8_t>(m.vert_constrained[v[0]] + m.vert_constrained[v[1]] +
                                          m.vert_constrained[v[2]] + m.vert_constrained[v[3]]);
-  }
+  });
 }
 
-Status build_topology(TetMesh& m) {
-  if (Status s = build_adjacency(m); !s) return s;
+Status build_topology(TetMesh& m, int threads) {
+  if (Status s = build_adjacency(m, threads); !s) return s;
   build_vertex_tets(m);
-  classify(m);
+  classify(m, threads);
   m.topology_epoch++;
   return Status::success();
 }

@@ -26,7 +26,8 @@ int cmd_generate(const std::vector<std::string>& args);
 
 /// Reads IN, normalises orientation, builds topology; prints the error (one
 /// line) and returns false on failure.  Reports inverted/flat tets on stderr.
-bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet);
+/// threads: for building the topology (same result for every count).
+bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet, int threads = 1);
 
 /// True when stderr is a terminal (progress lines go there).
 bool stderr_is_tty();

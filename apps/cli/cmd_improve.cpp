@@ -145,7 +145,7 @@ int cmd_improve(const std::vector<std::string>& args) {
   }
   const auto t0 = std::chrono::steady_clock::now();
   TetMesh m;
-  if (!load_mesh(in, m, quiet)) return kExitInput;
+  if (!load_mesh(in, m, quiet, opt.threads)) return kExitInput;
   const bool tty = stderr_is_tty() && !quiet;
   LogFn log = [&](LogLevel lvl, const std::string& msg) {
     if (quiet) return;

@@ -1,11 +1,13 @@
 // tetopt quality / convert, and the helpers every command shares.
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <thread>
 
 #include "cli.hpp"
 #include "tetopt/diagnose.hpp"
@@ -53,7 +55,7 @@ std::string id_list(const std::vector<int32_t>& ids, size_t max = 10) {
 }
 }  // namespace
 
-bool load_mesh(const std::string& path, TetMesh& m, bool quiet) {
+bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
   const bool progress = !quiet && stderr_is_tty();
   if (progress) std::fprintf(stderr, "reading %s ...\r", path.c_str());
   OrientationReport orient;
@@ -64,7 +66,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet) {
     return false;
   }
   if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
-  s = build_topology(m);
+  s = build_topology(m, threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
   if (progress) std::fputs("\033[K", stderr);
   if (!s) {
     std::fprintf(stderr, "tetopt: %s: %s\n", path.c_str(), s.message.c_str());

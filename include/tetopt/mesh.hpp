@@ -122,18 +122,20 @@ OrientationReport normalize_orientation(TetMesh& m);
 
 /// Builds vertex->tet CSR, face adjacency and the constrained classification.
 /// Fails (InvalidMesh, naming tet ids) when a face is shared by three or more
-/// tets or two tets have the same four vertices.
-Status build_topology(TetMesh& m);
+/// tets or two tets have the same four vertices.  threads: worker threads
+/// for the parallel parts; the result (and the error reported, the first in
+/// serial order) is the same for every count.
+Status build_topology(TetMesh& m, int threads = 1);
 
 /// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date).
 void build_vertex_tets(TetMesh& m);
 
 /// Rebuilds face adjacency; same failure cases as build_topology.
-Status build_adjacency(TetMesh& m);
+Status build_adjacency(TetMesh& m, int threads = 1);
 
 /// Recomputes face_mask, vert_constrained and tet_kind from adj, refs and the
 /// listed entities.  Requires adj.
-void classify(TetMesh& m);
+void classify(TetMesh& m, int threads = 1);
 
 /// Levels of validate(): Cheap checks sizes and ranges; Full also checks
 /// adjacency symmetry, manifoldness and exact orientation of every tet.

@@ -14,6 +14,7 @@
 
 #ifdef TETOPT_HAVE_TBB
 #include <tbb/blocked_range.h>
+#include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 #endif
@@ -36,6 +37,9 @@ void parallel_blocks(int64_t n, int threads, const Body& body) {
   if (n <= 0) return;
   const int64_t nb = (n + kBlock - 1) / kBlock;
 #ifdef TETOPT_HAVE_TBB
+  // More threads than the hardware has only adds switching (and oneTBB warns
+  // about the workers it cannot grant); the result does not depend on it.
+  threads = std::min(threads, tbb::info::default_concurrency());
   if (threads > 1 && nb > 1) {
     tbb::task_arena arena(threads);
     arena.execute([&] {

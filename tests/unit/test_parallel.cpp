@@ -1,0 +1,146 @@
+// The parallel loops (src/detail/parallel.hpp) must give the same answer for
+// every thread count: topology, classification, statistics, the first error
+// of a bad mesh, and a whole improve() run.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "detail/parallel.hpp"
+#include "tetopt/conventions.hpp"
+#include "tetopt/generate.hpp"
+#include "tetopt/improve.hpp"
+#include "tetopt/mesh.hpp"
+#include "tetopt/quality.hpp"
+
+using namespace tetopt;
+
+namespace {
+
+// 20 x 12 x 12 cells, 6 tets each: 17,280 tets, three blocks of the loops.
+TetMesh jittered_box(int regions = 2) {
+  BoxMeshOptions o;
+  o.nx = 20;
+  o.ny = 12;
+  o.nz = 12;
+  o.jitter = 0.3;
+  o.seed = 7;
+  o.regions = regions;
+  return make_box_mesh(o);
+}
+
+bool same_double(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+}  // namespace
+
+TEST(Parallel, BlocksCoverTheRangeOnce) {
+  for (int64_t n : {int64_t{0}, int64_t{1}, detail::kBlock - 1, detail::kBlock, 3 * detail::kBlock + 5}) {
+    std::vector<int> hits(static_cast<size_t>(n), 0);
+    detail::parallel_for_each(n, 4, [&](int64_t i) { hits[static_cast<size_t>(i)]++; });
+    for (int h : hits) ASSERT_EQ(h, 1);
+    const int64_t sum = detail::parallel_reduce_blocks(
+        n, 3, int64_t{0},
+        [](int64_t b, int64_t e) {
+          int64_t s = 0;
+          for (int64_t i = b; i < e; ++i) s += i;
+          return s;
+        },
+        [](int64_t x, int64_t y) { return x + y; });
+    EXPECT_EQ(sum, n * (n - 1) / 2);
+  }
+}
+
+TEST(Parallel, TopologyIsTheSameForEveryThreadCount) {
+  TetMesh a = jittered_box(), b = jittered_box();
+  ASSERT_GT(a.nt(), 2 * detail::kBlock);
+  ASSERT_TRUE(build_topology(a, 1));
+  ASSERT_TRUE(build_topology(b, 4));
+  EXPECT_EQ(a.adj, b.adj);
+  EXPECT_EQ(a.face_mask, b.face_mask);
+  EXPECT_EQ(a.vert_constrained, b.vert_constrained);
+  EXPECT_EQ(a.tet_kind, b.tet_kind);
+  EXPECT_TRUE(validate(b, ValidateLevel::Full));
+  // The region interface (x = 10) and the outer boundary are constrained.
+  int64_t constrained = 0;
+  for (uint8_t c : b.vert_constrained) constrained += c;
+  EXPECT_GT(constrained, 0);
+  EXPECT_LT(constrained, b.nv());
+}
+
+TEST(Parallel, FirstErrorIsTheSerialOne) {
+  // Two defects far apart (different blocks): a duplicated tet near the end
+  // and a third tet on an early face.  Every thread count names the same one.
+  TetMesh base = jittered_box(1);
+  const int32_t late = base.nt() - 3, early = 5;
+  for (int k = 0; k < 4; ++k) base.tets.push_back(base.tets[4 * static_cast<size_t>(late) + k]);
+  base.tet_ref.push_back(base.tet_ref[late]);
+  // A third tet on an interior face of tet `early`, apex off to the side.
+  TetMesh probe = jittered_box(1);
+  ASSERT_TRUE(build_topology(probe));
+  int face = -1;
+  for (int f = 0; f < 4 && face < 0; ++f)
+    if (probe.adj[4 * early + f] >= 0) face = f;
+  ASSERT_GE(face, 0);
+  const int32_t* v = base.tet(early);
+  const int32_t f0 = v[kFaceVertex[face][0]], f1 = v[kFaceVertex[face][1]], f2 = v[kFaceVertex[face][2]];
+  base.xyz.insert(base.xyz.end(), {-5.0, -5.0, -5.0});
+  const int32_t apex = base.nv() - 1;
+  base.tets.insert(base.tets.end(), {f0, f1, f2, apex});
+  base.tet_ref.push_back(base.tet_ref[early]);
+  std::string msg1;
+  for (int threads : {1, 2, 4}) {
+    TetMesh m = base;
+    const Status s = build_topology(m, threads);
+    ASSERT_FALSE(s);
+    if (threads == 1) msg1 = s.message;
+    EXPECT_EQ(s.message, msg1) << threads << " threads";
+  }
+  EXPECT_NE(msg1.find("not manifold"), std::string::npos) << msg1;
+}
+
+TEST(Parallel, StatisticsAreTheSameForEveryThreadCount) {
+  TetMesh m = jittered_box();
+  ASSERT_TRUE(build_topology(m));
+  const QualityStats a = compute_stats(m, 1), b = compute_stats(m, 3);
+  EXPECT_EQ(a.tets, b.tets);
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.regions, 2);
+  EXPECT_EQ(a.regions, b.regions);
+  EXPECT_EQ(a.worst_tet, b.worst_tet);
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(a.kind_count[k], b.kind_count[k]);
+  EXPECT_EQ(a.alpha_histogram, b.alpha_histogram);
+  EXPECT_EQ(a.dihedral_histogram, b.dihedral_histogram);
+  for (auto [x, y] : {std::pair{a.alpha_worst, b.alpha_worst}, {a.alpha_mean, b.alpha_mean},
+                      {a.alpha_boundary_mean, b.alpha_boundary_mean}, {a.alpha_interior_mean, b.alpha_interior_mean},
+                      {a.dihedral_min, b.dihedral_min}, {a.dihedral_max, b.dihedral_max},
+                      {a.mean_ratio_worst, b.mean_ratio_worst}, {a.radius_ratio_worst, b.radius_ratio_worst}})
+    EXPECT_TRUE(same_double(x, y)) << x << " vs " << y;
+  // And they are the statistics: the worst alpha is that of worst_tet, the
+  // mean agrees with a plain sum.
+  EXPECT_EQ(a.alpha_worst, tet_alpha(m, a.worst_tet));
+  double sum = 0;
+  for (int32_t t = 0; t < m.nt(); ++t) sum += tet_alpha(m, t);
+  EXPECT_NEAR(a.alpha_mean, sum / m.nt(), 1e-12);
+}
+
+TEST(Parallel, ImproveIsByteIdenticalForEveryThreadCount) {
+  TetMesh base = jittered_box();
+  ASSERT_TRUE(build_topology(base));
+  std::vector<TetMesh> out;
+  for (int threads : {1, 2, 4}) {
+    TetMesh m = base;
+    ImproveOptions o;
+    o.threads = threads;
+    ImproveReport r;
+    ASSERT_TRUE(improve(m, o, r));
+    EXPECT_TRUE(r.invariants_ok);
+    EXPECT_GT(r.after.alpha_worst, r.before.alpha_worst);
+    out.push_back(std::move(m));
+  }
+  for (size_t i = 1; i < out.size(); ++i) {
+    ASSERT_EQ(out[i].xyz.size(), out[0].xyz.size());
+    EXPECT_EQ(std::memcmp(out[i].xyz.data(), out[0].xyz.data(), out[0].xyz.size() * sizeof(double)), 0);
+    EXPECT_EQ(out[i].tets, out[0].tets);
+    EXPECT_EQ(out[i].tet_ref, out[0].tet_ref);
+  }
+}
