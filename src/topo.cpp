@@ -18,6 +18,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -1213,6 +1214,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   if (!(d.alpha_floor > -1e300)) d.alpha_floor = worst;
   TopoStats total;
   int64_t moves = 0;
+  std::optional<TopoEditor> evaluator;
   for (int round = 0; round < std::max(1, d.passes); ++round) {
     TopoStats st = run_passes(m, d, log, PassKind::Quality, nullptr);
     if (!st.status) return st;
@@ -1228,7 +1230,9 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
     // Relocate the free vertices of tets still below the threshold.
     int64_t moved = 0;
     {
-      TopoEditor q(m, d);  // measure evaluator (no edits: finish() is a no-op)
+      evaluator.reset();
+      evaluator.emplace(m, d);  // measure evaluator (no edits: finish() is a no-op)
+      TopoEditor& q = *evaluator;
       std::vector<uint8_t> seen(m.nv(), 0);
       for (int32_t t = 0; t < m.nt(); ++t) {
         if (!q.below(t, d.quality_threshold)) continue;
@@ -1244,9 +1248,15 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
     if (log)
       log(LogLevel::Info, "topo dihedral round " + std::to_string(round + 1) + ": " + std::to_string(st.applied()) +
                               " flips, " + std::to_string(moved) + " vertex moves");
-    if (moved == 0 && st.applied() == 0) break;
+    if (moved == 0 && st.applied() == 0) {
+      // Nothing changed since the evaluator was built: its cache is current.
+      total.alpha_worst_after = evaluator->min_cached();
+      evaluator.reset();
+      break;
+    }
   }
-  {
+  if (evaluator) {  // vertices moved since it was built: measure afresh
+    evaluator.reset();
     TopoEditor q(m, d);
     total.alpha_worst_after = q.min_cached();
   }
