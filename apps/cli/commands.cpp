@@ -86,7 +86,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
 
 static const char* kQualityHelp =
     "usage: tetopt quality IN [--json] [--field OUT.vtu] [--html REPORT.html] [--threshold G]\n"
-    "                         [--no-histogram] [-q]\n"
+    "                         [--threads K] [--no-histogram] [-q]\n"
     "\n"
     "Prints the quality of a tetrahedral mesh:\n"
     "  alpha = 6*sqrt(6)*V / (sum of face areas * longest edge)  (1 regular, 0 flat, <0 inverted)\n"
@@ -110,6 +110,8 @@ static const char* kQualityHelp =
     "  --html FILE       write a self-contained HTML report (histograms, tables,\n"
     "                    diagnosis with the worst tets)\n"
     "  --threshold G     alpha below which a tet is diagnosed (default 0.3)\n"
+    "  --threads K       worker threads for the topology and the statistics\n"
+    "                    (default 1, 0 = all cores; the numbers are the same for any K)\n"
     "  --no-histogram    omit the histograms\n"
     "  -q                no notes or progress on stderr\n"
     "\n"
@@ -118,6 +120,7 @@ static const char* kQualityHelp =
 int cmd_quality(const std::vector<std::string>& args) {
   std::string in, field, html;
   bool json = false, hist = true, quiet = false;
+  int threads = 1;
   DiagnoseOptions dopt;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -136,6 +139,14 @@ int cmd_quality(const std::vector<std::string>& args) {
       if (i + 1 >= args.size() || !parse_double(a, args[++i], d)) return kExitUsage;
       if (d <= 0 || d > 1) { std::fputs("tetopt quality: --threshold must be in (0, 1]\n", stderr); return kExitUsage; }
       dopt.threshold = d;
+    } else if (a == "--threads") {
+      double d = 0;
+      if (i + 1 >= args.size() || !parse_double(a, args[++i], d)) return kExitUsage;
+      if (d < 0 || d > 1024 || d != static_cast<int>(d)) {
+        std::fputs("tetopt quality: --threads must be an integer in 0..1024\n", stderr);
+        return kExitUsage;
+      }
+      threads = static_cast<int>(d);
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "tetopt quality: unknown option '%s'\n\n%s", a.c_str(), kQualityHelp);
       return kExitUsage;
@@ -144,8 +155,8 @@ int cmd_quality(const std::vector<std::string>& args) {
   }
   if (in.empty()) { std::fputs(kQualityHelp, stderr); return kExitUsage; }
   TetMesh m;
-  if (!load_mesh(in, m, quiet || json)) return kExitInput;
-  const QualityStats s = compute_stats(m);
+  if (!load_mesh(in, m, quiet || json, threads)) return kExitInput;
+  const QualityStats s = compute_stats(m, threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
   const Diagnosis diag = diagnose(m, dopt);
   if (json) {
     std::string js = stats_to_json(s);
