@@ -39,4 +39,8 @@ def clean(x):
 print(json.dumps(clean(json.load(open(sys.argv[1]))), sort_keys=True))' "$1"; }
 check "reports agree apart from timings, output name and thread count" '[ "$(strip "$W/r1.json")" = "$(strip "$W/r2.json")" ]'
 check "output meshes of the reported runs identical" 'cmp -s "$W/r1.mesh" "$W/r2.mesh"'
+# quality: the same numbers for every thread count (parallel topology and statistics).
+"$T" generate "$W/big.meshb" --cells 16 16 16 --jitter 0.4 --regions 2 --seed 5 > /dev/null  # 24,576 tets: 3 blocks
+"$T" quality "$W/big.meshb" --json --threads 1 > "$W/q1.json"; "$T" quality "$W/big.meshb" --json --threads 3 > "$W/q3.json"
+check "quality --threads 1 and 3 agree apart from timings" '[ -s "$W/q1.json" ] && [ "$(strip "$W/q1.json")" = "$(strip "$W/q3.json")" ]'
 exit $fail
