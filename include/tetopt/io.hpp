@@ -36,6 +36,7 @@ struct WriteOptions {
   int msh_version = 41;       ///< 22 or 41 for .msh
   bool binary = false;        ///< binary .msh / .vtk; .meshb is always binary
   int meditb_version = 3;     ///< GMF version for .meshb: 2 (32-bit ints), 3 or 4 (64-bit)
+  int threads = 1;            ///< .mesh: format lines on this many threads (same bytes for any count)
 };
 
 /// Parses `data` (the bytes of a file named `name`, used in messages) into m's
@@ -53,7 +54,7 @@ Status parse_tetgen(std::string_view node, std::string_view ele, std::string_vie
 
 /// Serialises m in the given format into `out` (bytes).  For TetGen, out is
 /// the .node text and out_ele / out_face receive the other files.
-Status format_medit(const TetMesh& m, std::string& out);
+Status format_medit(const TetMesh& m, std::string& out, int threads = 1);
 Status format_meditb(const TetMesh& m, std::string& out, int version);
 Status format_gmsh(const TetMesh& m, std::string& out, int version, bool binary);
 Status format_vtk(const TetMesh& m, std::string& out, bool binary);

@@ -168,7 +168,7 @@ Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions&
       // Always written (possibly empty) so a stale .face never pairs with new .node/.ele.
       return write_file_atomic(base + ".face", face);
     }
-    case Format::Medit: s = format_medit(m, out); break;
+    case Format::Medit: s = format_medit(m, out, opt.threads); break;
     case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;
     case Format::Gmsh: s = format_gmsh(m, out, opt.msh_version, opt.binary); break;
     case Format::Vtk: s = format_vtk(m, out, opt.binary); break;

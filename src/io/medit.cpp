@@ -39,6 +39,7 @@
 #include <string_view>
 #include <vector>
 
+#include "detail/parallel.hpp"
 #include "io/common.hpp"
 #include "tetopt/io.hpp"
 
@@ -884,7 +885,7 @@ Status parse_meditb(std::string_view data, const std::string& name, TetMesh& m) 
   });
 }
 
-Status format_medit(const TetMesh& m, std::string& out) {
+Status format_medit(const TetMesh& m, std::string& out, int threads) {
   return guarded("Medit writer", [&] {
     if (Status s = check_for_write(m); !s) return s;
     out.clear();
@@ -892,15 +893,28 @@ Status format_medit(const TetMesh& m, std::string& out) {
     out += "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n";
     put_int(out, m.nv());
     out += '\n';
-    for (int32_t v = 0; v < m.nv(); ++v) {
+    // Vertex and tet lines are formatted in fixed blocks (in parallel with
+    // threads > 1) and appended in order: the same bytes for any count.
+    auto blocks = [&](int64_t n, auto&& line) {
+      const int64_t nb = (n + detail::kBlock - 1) / detail::kBlock;
+      std::vector<std::string> part(static_cast<size_t>(nb));
+      detail::parallel_blocks(n, threads, [&](int64_t b, int64_t e) {
+        std::string& o = part[static_cast<size_t>(b / detail::kBlock)];
+        o.reserve(static_cast<size_t>(e - b) * 64);
+        for (int64_t i = b; i < e; ++i) line(o, i);
+      });
+      for (const std::string& p : part) out += p;
+    };
+    blocks(m.nv(), [&](std::string& o, int64_t i) {
+      const auto v = static_cast<int32_t>(i);
       const double* p = m.point(v);
       for (int k = 0; k < 3; ++k) {
-        put_real(out, p[k]);
-        out += ' ';
+        put_real(o, p[k]);
+        o += ' ';
       }
-      put_int(out, ref_of(m.vert_ref, v));
-      out += '\n';
-    }
+      put_int(o, ref_of(m.vert_ref, v));
+      o += '\n';
+    });
     out += '\n';
     auto elements = [&](const char* kw, const std::vector<int32_t>& ids, int per, const std::vector<int32_t>& refs) {
       if (ids.empty()) return;
@@ -924,16 +938,17 @@ Status format_medit(const TetMesh& m, std::string& out) {
     out += "Tetrahedra\n";
     put_int(out, m.nt());
     out += '\n';
-    for (int32_t t = 0; t < m.nt(); ++t) {
+    blocks(m.nt(), [&](std::string& o, int64_t i) {
+      const auto t = static_cast<int32_t>(i);
       int32_t v[4];
       detail::file_tet(m, t, Format::Medit, v);
       for (int k = 0; k < 4; ++k) {
-        put_int(out, int64_t(v[k]) + 1);
-        out += ' ';
+        put_int(o, int64_t(v[k]) + 1);
+        o += ' ';
       }
-      put_int(out, ref_of(m.tet_ref, static_cast<size_t>(t)));
-      out += '\n';
-    }
+      put_int(o, ref_of(m.tet_ref, static_cast<size_t>(t)));
+      o += '\n';
+    });
     out += '\n';
     put_list(out, "Corners", m.corners);
     put_list(out, "RequiredVertices", m.required_vertices);

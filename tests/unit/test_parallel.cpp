@@ -10,6 +10,7 @@
 #include "tetopt/conventions.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/improve.hpp"
+#include "tetopt/io.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/quality.hpp"
 
@@ -143,4 +144,19 @@ TEST(Parallel, ImproveIsByteIdenticalForEveryThreadCount) {
     EXPECT_EQ(out[i].tets, out[0].tets);
     EXPECT_EQ(out[i].tet_ref, out[0].tet_ref);
   }
+}
+
+TEST(Parallel, MeditWriterGivesTheSameBytes) {
+  TetMesh m = jittered_box();
+  ASSERT_GT(m.nv(), static_cast<int32_t>(detail::kBlock) / 4);
+  std::string a, b;
+  ASSERT_TRUE(format_medit(m, a, 1));
+  ASSERT_TRUE(format_medit(m, b, 3));
+  EXPECT_EQ(a, b);
+  // And it reads back to the same mesh.
+  TetMesh back;
+  ASSERT_TRUE(parse_medit(b, "parallel.mesh", back));
+  EXPECT_EQ(back.tets, m.tets);
+  ASSERT_EQ(back.xyz.size(), m.xyz.size());
+  EXPECT_EQ(std::memcmp(back.xyz.data(), m.xyz.data(), m.xyz.size() * sizeof(double)), 0);
 }
