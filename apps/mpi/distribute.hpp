@@ -79,6 +79,13 @@ struct PartitionOptions {
 /// active tets).  Returns an empty vector and sets err when METIS fails.
 std::vector<int32_t> partition_tets(const tetopt::TetMesh& g, const PartitionOptions& opt, std::string& err);
 
+/// Moves the tets within two vertex layers of each seed tet (in the given
+/// order; earlier seeds win) into the seed's part, so no cut passes through
+/// a seed's vertices or those of its neighbours.  Tets of the kept group
+/// (part id kept_id) are left alone.  Returns the number of tets moved.
+int64_t pull_in(const tetopt::TetMesh& g, std::vector<int32_t>& part, int32_t kept_id,
+                const std::vector<int32_t>& seeds);
+
 /// One part as rank 0 keeps it: the global ids of its vertices (local id =
 /// index), and the serialised part mesh to send.
 struct PartPlan {
@@ -87,8 +94,8 @@ struct PartPlan {
   int64_t tets = 0, interface_vertices = 0;
 };
 
-/// Builds every part's plan and message: parts 0..parts-1, plus one more for
-/// the kept group (part id == parts) when it has tets.  A vertex is required
+/// Builds the plan and message of parts 0..parts-1 (tets with part id ==
+/// parts form the kept group: no plan, no message).  A vertex is required
 /// in a part when it is constrained in g or lies in two or more groups (kept
 /// group included).  shared_out (nv of g) gets 1 on the vertices that lie in
 /// two or more of the parts 0..parts-1 (the interface of this round).
@@ -112,13 +119,12 @@ struct PartResult {
 };
 bool decode_result(const std::string& msg, PartResult& r);
 
-/// The kept group's message read back as an unchanged result.
-PartResult passthrough(const std::string& msg);
 
-/// Replaces g's tets by the parts' (in part order) and moves/appends
-/// vertices; checks that every vertex listed required in a part kept its bits.
-/// Rebuilds g's topology.
-tetopt::Status merge_parts(tetopt::TetMesh& g, const std::vector<PartPlan>& plans,
+/// Replaces g's tets by the kept ones (part id == plans.size(), unchanged,
+/// first) and the parts' (in part order), and moves/appends vertices; checks
+/// that every vertex listed required in a part kept its bits.  Rebuilds g's
+/// topology.
+tetopt::Status merge_parts(tetopt::TetMesh& g, const std::vector<int32_t>& part, const std::vector<PartPlan>& plans,
                            std::vector<PartResult>& results);
 
 /// Marks, in a vector of g.nv() flags (seed is padded with zeros to g.nv()), the vertices of every tet that has a

@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <chrono>
 #include <climits>
+#include <limits>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -74,7 +75,8 @@ const char* kHelp =
     "options of tetopt-mpi:\n"
     "  --rounds R           partition rounds (default 8; stops earlier after two\n"
     "                       rounds in a row that do not raise the worst alpha).\n"
-    "                       Round r uses threshold max(G, min(0.6, worst + 0.1))\n"
+    "                       A round's threshold is max(G, min(0.6, worst + 0.1 +\n"
+    "                       0.1 x rounds in a row without gain))\n"
     "  --per-rank DIR       also write DIR/part_<rank>.vtu (the last round's parts,\n"
     "                       fields rank, region, alpha) and DIR/parts.pvtu\n";
 
@@ -248,6 +250,8 @@ struct RoundLog {
   std::vector<double> improve_per_rank;
   std::vector<int64_t> tets_per_rank, interface_vertices_per_rank;
   int64_t bytes_scatter = 0, bytes_gather = 0;
+  int64_t pulled_tets = 0;                     ///< tets moved next to a worst tet after METIS
+  bool worst_frozen = false;                   ///< the worst tet touched this round's interface
   int64_t active_tets = 0;                     ///< tets sent out to be improved this round
   int64_t frozen_tets = 0, refrozen_tets = 0;  ///< tets touching the interface; of those, also the previous one
   int64_t insertions = 0, flips = 0, smooth_moves = 0;
@@ -275,7 +279,8 @@ std::string round_json(const RoundLog& r) {
        ", \"improve_max\": " + num(r.improve_max) + ", \"improve_min\": " + num(r.improve_min) +
        ", \"improve_sum\": " + num(r.improve_sum) + "}";
   s += ", \"improve_seconds_per_rank\": " + arr(r.improve_per_rank);
-  s += ", \"active_tets\": " + std::to_string(r.active_tets);
+  s += ", \"active_tets\": " + std::to_string(r.active_tets) + ", \"pulled_tets\": " + std::to_string(r.pulled_tets);
+  s += std::string(", \"worst_tet_at_interface\": ") + (r.worst_frozen ? "true" : "false");
   s += ", \"tets_per_rank\": " + arr(r.tets_per_rank);
   s += ", \"interface_vertices_per_rank\": " + arr(r.interface_vertices_per_rank);
   s += ", \"bytes_scatter\": " + std::to_string(r.bytes_scatter) + ", \"bytes_gather\": " + std::to_string(r.bytes_gather);
@@ -322,10 +327,29 @@ int worker(const Args& a, int rank) {
 }
 
 // ---------------------------------------------------------------- rank 0
+// alpha of every tet into al, and the three numbers the rounds look at (the
+// full statistics are computed once, at the end).
+QualityStats alpha_scan(const TetMesh& g, std::vector<double>& al) {
+  QualityStats q;
+  al.resize(static_cast<size_t>(g.nt()));
+  double sum = 0, worst = std::numeric_limits<double>::infinity();
+  for (int32_t k = 0; k < g.nt(); ++k) {
+    const double x = tet_alpha(g, k);
+    al[k] = x;
+    sum += x;
+    worst = std::min(worst, x);
+    q.alpha_below_03 += x < 0.3;
+  }
+  q.tets = g.nt();
+  q.alpha_worst = worst;
+  q.alpha_mean = g.nt() ? sum / g.nt() : 0;
+  return q;
+}
+
 // Vertices the cut should stay away from: around the previous interface
 // (level 1; its tets were frozen last round) and around the worst tets
-// (level 2: below the 2nd percentile of alpha, capped at the threshold, or
-// within 25% of the worst alpha; two layers of tets around them).  A tet
+// (level 2: the worst tet and those below both the round's threshold and the
+// 1st percentile of alpha; two layers of tets around them).  A tet
 // frozen next to a cut keeps its shape while its free neighbours settle
 // around it, which can trap the next round in a worse optimum.
 std::vector<uint8_t> avoid_flags(const TetMesh& g, const std::vector<double>& al, const std::vector<uint8_t>& prev_shared,
@@ -333,9 +357,9 @@ std::vector<uint8_t> avoid_flags(const TetMesh& g, const std::vector<double>& al
   std::vector<uint8_t> avoid =
       prev_shared.empty() ? std::vector<uint8_t>(static_cast<size_t>(g.nv()), 0) : dilate(g, prev_shared);
   std::vector<double> sorted = al;
-  const size_t q = sorted.size() / 50;
+  const size_t q = sorted.size() / 100;
   std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
-  const double poor = std::max(1.25 * worst, std::min(threshold, sorted[q]));
+  const double poor = std::max(worst, std::min(threshold, sorted[q]));
   std::vector<uint8_t> bad(static_cast<size_t>(g.nv()), 0);
   for (int32_t k = 0; k < g.nt(); ++k)
     if (al[k] < poor)
@@ -371,19 +395,21 @@ int leader(const Args& a, int size) {
   std::vector<uint8_t> prev_shared;  // interface vertices of the previous round
   int exit_code = kExitOk;
   std::string failure;
-  QualityStats cur = before;
+  std::vector<double> al;  // alpha of every tet of g, current
+  QualityStats cur = alpha_scan(g, al);
   int stale = 0;  // rounds in a row that did not raise the worst alpha
   for (int round = 1; round <= a.rounds; ++round) {
     RoundLog L;
     L.round = round;
     const double r0 = now();
     // The round's threshold: the user's, or 0.1 above the current worst
-    // alpha (at most 0.6) once the worst tet is past it.  improve's own
-    // rising threshold stops early in a part whose worst tet is frozen at the
-    // cut (it sees no progress), so the rounds carry the rise across
-    // partitions.  (Rising by a fixed 0.1 a round, or keeping the user's
-    // threshold, gave worse results on generated boxes: docs/mpi.md.)
-    const double gamma = std::max(a.opt.threshold, std::min(0.6, cur.alpha_worst + 0.1));
+    // alpha once the worst tet is past it, plus 0.1 for every round in a row
+    // that did not raise the worst alpha (at most 0.6).  improve's own rising
+    // threshold stops early in a part whose worst tet is frozen at the cut (it
+    // sees no progress), so the rounds carry the rise across partitions.
+    // (Rising by a fixed 0.1 a round, or keeping the user's threshold, gave
+    // worse results on generated boxes: docs/mpi.md.)
+    const double gamma = std::max(a.opt.threshold, std::min(0.6, cur.alpha_worst + 0.1 + 0.1 * stale));
     L.threshold = gamma;
     // ---- partition.  Round 1 improves every tet.  Later rounds improve only
     // where there is something left to do: the band around the previous
@@ -391,8 +417,6 @@ int leader(const Args& a, int size) {
     // below this round's threshold (two layers around them).  The other tets
     // stay on rank 0 unchanged; the faces between them and the band are
     // frozen like the cut.
-    std::vector<double> al(static_cast<size_t>(g.nt()));
-    for (int32_t k = 0; k < g.nt(); ++k) al[k] = tet_alpha(g, k);
     std::vector<uint8_t> active;
     if (round > 1) {
       std::vector<uint8_t> near = prev_shared;
@@ -417,8 +441,7 @@ int leader(const Args& a, int size) {
       L.active_tets = g.nt();
     }
     std::vector<uint8_t> avoid;
-    if (size > 1) avoid = avoid_flags(g, al, prev_shared, a.opt.threshold, cur.alpha_worst);
-    std::vector<double>().swap(al);
+    if (size > 1) avoid = avoid_flags(g, al, prev_shared, gamma, cur.alpha_worst);
     PartitionOptions po;
     po.parts = size;
     po.seed = static_cast<int>(a.opt.seed % 1000003) + round;
@@ -428,6 +451,19 @@ int leader(const Args& a, int size) {
     std::string err;
     std::vector<int32_t> part = partition_tets(g, po, err);
     if (part.empty()) { failure = err; exit_code = kExitInput; break; }
+    if (size > 1) {
+      // METIS's cut may still pass next to a worst tet (the weights are a
+      // preference); the 32 worst tets below the threshold take their
+      // neighbourhoods into their own part.
+      std::vector<int32_t> seeds;
+      for (int32_t k = 0; k < g.nt(); ++k)
+        if (al[k] < gamma || al[k] == cur.alpha_worst) seeds.push_back(k);
+      const size_t n = std::min<size_t>(32, seeds.size());
+      std::partial_sort(seeds.begin(), seeds.begin() + static_cast<std::ptrdiff_t>(n), seeds.end(),
+                        [&](int32_t x, int32_t y) { return al[x] < al[y] || (al[x] == al[y] && x < y); });
+      seeds.resize(n);
+      L.pulled_tets = pull_in(g, part, size, seeds);
+    }
     L.t_partition = now() - r0;
     // ---- extract the parts (plus the kept group, not sent)
     double t = now();
@@ -435,9 +471,12 @@ int leader(const Args& a, int size) {
     std::vector<std::string> msgs;
     std::vector<uint8_t> shared;
     build_parts(g, part, size, plans, msgs, shared);
-    std::vector<int32_t>().swap(part);
     L.t_extract = now() - t;
     L.frozen_tets = count_touching(g, shared);
+    {  // is the worst tet touching this round's interface?
+      const int32_t w = static_cast<int32_t>(std::min_element(al.begin(), al.end()) - al.begin());
+      for (int j = 0; j < 4; ++j) L.worst_frozen |= shared[g.tet(w)[j]] != 0;
+    }
     if (!prev_shared.empty()) {
       prev_shared.resize(static_cast<size_t>(g.nv()), 0);
       for (int32_t k = 0; k < g.nt(); ++k) {
@@ -468,11 +507,10 @@ int leader(const Args& a, int size) {
     L.t_improve_own = own_secs;
     std::string().swap(msgs[0]);
     // ---- gather
-    std::vector<PartResult> results(plans.size());
+    std::vector<PartResult> results(static_cast<size_t>(size));
     t = now();
     decode_result(own_res, results[0]);
     std::string().swap(own_res);
-    if (plans.size() > static_cast<size_t>(size)) results[size] = passthrough(msgs[size]);
     for (int got = 1; got < size; ++got) {
       MPI_Status st;
       probe_polite(MPI_ANY_SOURCE, st);
@@ -491,7 +529,6 @@ int leader(const Args& a, int size) {
         failure = "rank " + std::to_string(p) + ": " + r.message;
         exit_code = r.code == static_cast<int>(ErrorCode::Invariant) ? kExitInvariant : kExitInput;
       }
-      if (p == size) continue;  // the kept group
       L.improve_per_rank.push_back(r.seconds);
       L.insertions += r.rep.insertions;
       L.flips += r.rep.flip23 + r.rep.flip32 + r.rep.edge_removals + r.rep.multi_face_removals + r.rep.flip22 +
@@ -504,22 +541,23 @@ int leader(const Args& a, int size) {
     for (double x : L.improve_per_rank) L.improve_sum += x;
     // ---- merge
     t = now();
-    s = merge_parts(g, plans, results);
+    s = merge_parts(g, part, plans, results);
     L.t_merge = now() - t;
     if (!s) { failure = s.message; exit_code = kExitInvariant; break; }
     t = now();
-    L.after = compute_stats(g);
+    std::vector<int32_t>().swap(part);
+    L.after = alpha_scan(g, al);
     L.t_stats = now() - t;
     L.t_total = now() - r0;
     say("round %d (threshold %.2f, %lld tets active): worst alpha %.4f -> %.4f, %lld tets below 0.3; "
         "partition %.3f s, extract %.3f s, scatter %.3f s (%.1f MB), improve %.3f s (max over ranks; min %.3f s), "
         "gather wait %.3f s + transfer %.3f s (%.1f MB), merge %.3f s; %lld tets frozen at the interface, "
-        "%lld of them also frozen in the previous round\n",
+        "%lld of them also frozen in the previous round%s\n",
         round, gamma, static_cast<long long>(L.active_tets), cur.alpha_worst, L.after.alpha_worst,
         static_cast<long long>(L.after.alpha_below_03), L.t_partition, L.t_extract, L.t_scatter,
         L.bytes_scatter / 1e6, L.improve_max, L.improve_min, L.t_gather_wait, L.t_gather_transfer,
         L.bytes_gather / 1e6, L.t_merge, static_cast<long long>(L.frozen_tets),
-        static_cast<long long>(L.refrozen_tets));
+        static_cast<long long>(L.refrozen_tets), L.worst_frozen ? "; the worst tet was at the interface" : "");
     const bool gained = L.after.alpha_worst > cur.alpha_worst + 1e-6;
     stale = gained ? 0 : stale + 1;
     cur = L.after;
@@ -581,13 +619,15 @@ int leader(const Args& a, int size) {
     return exit_code;
   }
   const double total = now() - t_start;
-  const QualityStats after = logs.empty() ? before : logs.back().after;
+  const double t_stats = now();
+  const QualityStats after = compute_stats(g);
+  const double t_final_stats = now() - t_stats;
   if (!a.quiet) {
     std::printf("%s -> %s (%d ranks, mode %s, %zu rounds)\n", a.in.c_str(), a.out.c_str(), size,
                 mode_name(a.opt.mode), logs.size());
     std::printf("%s", format_before_after(before, after, total).c_str());
-    std::printf("  time: read %.3f s, final check %.3f s, write %.3f s, per-rank files %.3f s, end to end %.3f s\n",
-                t_read, t_check, t_write, t_parts, total);
+    std::printf("  time: read %.3f s, final check %.3f s, final statistics %.3f s, write %.3f s, per-rank files "
+                "%.3f s, end to end %.3f s\n", t_read, t_check, t_final_stats, t_write, t_parts, total);
     std::printf("  boundary unchanged: yes (checked on the merged mesh: constrained vertices bit-identical, "
                 "constrained faces identical, no inverted tet, region volumes kept)\n");
     if (write_parts) std::printf("  wrote %d pieces and %s/parts.pvtu\n", size, a.per_rank.c_str());
@@ -601,6 +641,7 @@ int leader(const Args& a, int size) {
                      ",\n  \"mode\": " + json_string(mode_name(a.opt.mode)) +
                      ",\n  \"tets_in\": " + std::to_string(before.tets) +
                      ",\n  \"seconds_read\": " + num(t_read) + ",\n  \"seconds_check\": " + num(t_check) +
+                     ",\n  \"seconds_final_stats\": " + num(t_final_stats) +
                      ",\n  \"seconds_write\": " + num(t_write) + ",\n  \"seconds_per_rank_files\": " + num(t_parts) +
                      ",\n  \"seconds_end_to_end\": " + num(total) +
                      ",\n  \"bytes_scatter\": " + std::to_string(bs) + ",\n  \"bytes_gather\": " + std::to_string(bg) +
