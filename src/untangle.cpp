@@ -186,7 +186,10 @@ class Solver {
 
 std::string id_list(const std::vector<UntangleRemaining>& r) {
   std::string s;
-  for (size_t i = 0; i < r.size() && i < 20; ++i) s += (i ? " " : "") + std::to_string(r[i].tet + 1);
+  for (size_t i = 0; i < r.size() && i < 20; ++i) {
+    if (i) s += ' ';  // (appending "" + to_string trips GCC 12's -Wrestrict false positive)
+    s += std::to_string(r[i].tet + 1);
+  }
   if (r.size() > 20) s += " ...";
   return s;
 }
