@@ -206,6 +206,27 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
     st = decode_part(framed.substr(sizeof(double)), part);
   }
   if (st) st = improve(part, opt, rep);
+  // improve's best mode stops after two rounds that do not raise the worst
+  // alpha of the mesh it is given.  In a part, that worst tet is often one it
+  // cannot touch (frozen at the cut, or locked by the boundary), so the run
+  // stops after two rounds while the same tets in one process would get
+  // four or five.  Call it again, up to twice, while a call still did a
+  // noticeable amount of work (0.2% of the part's tets in flips and moves).
+  for (int again = 0; again < 2 && st && opt.mode == ImproveMode::Best; ++again) {
+    const int64_t ops = rep.flip23 + rep.flip32 + rep.edge_removals + rep.multi_face_removals + rep.flip22 +
+                        rep.flip44 + rep.smooth_moves + rep.insertions;
+    if (rep.rounds >= opt.iterations || ops < std::max<int64_t>(1, part.nt() / 500)) break;
+    ImproveReport more;
+    st = improve(part, opt, more);
+    rep.smooth_moves += more.smooth_moves; rep.smooth_tried += more.smooth_tried;
+    rep.flip23 += more.flip23; rep.flip32 += more.flip32; rep.edge_removals += more.edge_removals;
+    rep.multi_face_removals += more.multi_face_removals; rep.flip22 += more.flip22; rep.flip44 += more.flip44;
+    rep.all_boundary_removed += more.all_boundary_removed; rep.insertions += more.insertions;
+    rep.vertex_moves += more.vertex_moves; rep.rounds = more.rounds;
+    rep.seconds_total += more.seconds_total; rep.seconds_smooth += more.seconds_smooth;
+    rep.seconds_topo += more.seconds_topo; rep.seconds_check += more.seconds_check;
+    rep.after = more.after;
+  }
   seconds = now() - t0;
   return encode_result(st, rep, seconds, part);
 }
