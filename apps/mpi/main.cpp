@@ -188,9 +188,11 @@ bool send_bytes(const std::string& b, int dst, int tag, double* seconds) {
   return true;
 }
 
-// A part message as sent: the round's threshold, then the part.
-std::string frame(double gamma, std::string msg) {
-  msg.insert(0, reinterpret_cast<const char*>(&gamma), sizeof gamma);
+// A part message as sent: the round's threshold, whether the part has a cut
+// (frozen vertices that are not constrained in the input), then the part.
+std::string frame(double gamma, bool cut, std::string msg) {
+  const double head[2] = {gamma, cut ? 1.0 : 0.0};
+  msg.insert(0, reinterpret_cast<const char*>(head), sizeof head);
   return msg;
 }
 
@@ -199,12 +201,15 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
                          Status& st) {
   const double t0 = now();
   ImproveReport rep;
-  if (framed.size() < sizeof(double)) {
+  double head[2] = {0, 0};
+  if (framed.size() < sizeof head) {
     st = Status::error(ErrorCode::InvalidMesh, "truncated part message");
   } else {
-    std::memcpy(&opt.threshold, framed.data(), sizeof(double));
-    st = decode_part(framed.substr(sizeof(double)), part);
+    std::memcpy(head, framed.data(), sizeof head);
+    opt.threshold = head[0];
+    st = decode_part(framed.substr(sizeof head), part);
   }
+  const bool cut = head[1] != 0;
   if (st) st = improve(part, opt, rep);
   // improve's best mode stops after two rounds that do not raise the worst
   // alpha of the mesh it is given.  In a part, that worst tet is often one it
@@ -212,7 +217,8 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
   // stops after two rounds while the same tets in one process would get
   // four or five.  Call it again, up to twice, while a call still did a
   // noticeable amount of work (0.2% of the part's tets in flips and moves).
-  for (int again = 0; again < 2 && st && opt.mode == ImproveMode::Best; ++again) {
+  // Only in parts with a cut: without one, this is tetopt improve's own run.
+  for (int again = 0; again < 2 && st && cut && opt.mode == ImproveMode::Best; ++again) {
     const int64_t ops = rep.flip23 + rep.flip32 + rep.edge_removals + rep.multi_face_removals + rep.flip22 +
                         rep.flip44 + rep.smooth_moves + rep.insertions;
     if (rep.rounds >= opt.iterations || ops < std::max<int64_t>(1, part.nt() / 500)) break;
@@ -269,7 +275,7 @@ struct RoundLog {
          t_gather_transfer = 0, t_merge = 0, t_stats = 0, t_total = 0;
   double improve_max = 0, improve_min = 0, improve_sum = 0;
   std::vector<double> improve_per_rank;
-  std::vector<int64_t> tets_per_rank, interface_vertices_per_rank;
+  std::vector<int64_t> tets_per_rank, interface_vertices_per_rank, flips_per_rank, improve_rounds_per_rank;
   int64_t bytes_scatter = 0, bytes_gather = 0;
   int64_t pulled_tets = 0;                     ///< tets moved next to a worst tet after METIS
   bool worst_frozen = false;                   ///< the worst tet touched this round's interface
@@ -304,6 +310,8 @@ std::string round_json(const RoundLog& r) {
   s += std::string(", \"worst_tet_at_interface\": ") + (r.worst_frozen ? "true" : "false");
   s += ", \"tets_per_rank\": " + arr(r.tets_per_rank);
   s += ", \"interface_vertices_per_rank\": " + arr(r.interface_vertices_per_rank);
+  s += ", \"flips_per_rank\": " + arr(r.flips_per_rank);
+  s += ", \"improve_rounds_per_rank\": " + arr(r.improve_rounds_per_rank);
   s += ", \"bytes_scatter\": " + std::to_string(r.bytes_scatter) + ", \"bytes_gather\": " + std::to_string(r.bytes_gather);
   s += ", \"frozen_tets\": " + std::to_string(r.frozen_tets) + ", \"refrozen_tets\": " + std::to_string(r.refrozen_tets);
   s += ", \"insertions\": " + std::to_string(r.insertions) + ", \"flips\": " + std::to_string(r.flips) +
@@ -512,7 +520,8 @@ int leader(const Args& a, int size) {
       L.interface_vertices_per_rank.push_back(plans[p].interface_vertices);
     }
     // ---- scatter
-    for (int p = 0; p < size; ++p) msgs[p] = frame(gamma, std::move(msgs[p]));
+    for (int p = 0; p < size; ++p)
+      msgs[p] = frame(gamma, plans[p].interface_vertices > 0 || plans[p].tets < g.nt(), std::move(msgs[p]));
     bool sent = true;
     for (int p = 1; p < size && sent; ++p) {
       L.bytes_scatter += static_cast<int64_t>(msgs[p].size());
@@ -552,8 +561,11 @@ int leader(const Args& a, int size) {
       }
       L.improve_per_rank.push_back(r.seconds);
       L.insertions += r.rep.insertions;
-      L.flips += r.rep.flip23 + r.rep.flip32 + r.rep.edge_removals + r.rep.multi_face_removals + r.rep.flip22 +
-                 r.rep.flip44;
+      const int64_t fl = r.rep.flip23 + r.rep.flip32 + r.rep.edge_removals + r.rep.multi_face_removals +
+                         r.rep.flip22 + r.rep.flip44;
+      L.flips += fl;
+      L.flips_per_rank.push_back(fl);
+      L.improve_rounds_per_rank.push_back(r.rep.rounds);
       L.smooth_moves += r.rep.smooth_moves;
     }
     if (exit_code != kExitOk) break;
