@@ -32,7 +32,7 @@ struct Writer {
   template <class T> void put(const T& v) { buf.append(reinterpret_cast<const char*>(&v), sizeof(T)); }
   template <class T> void put_vec(const std::vector<T>& v) {
     put<uint64_t>(v.size());
-    buf.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    if (!v.empty()) buf.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
   }
 };
 struct Reader {
@@ -52,7 +52,7 @@ struct Reader {
     std::vector<T> v;
     if (!ok || n > (buf.size() - pos) / sizeof(T)) { ok = false; return v; }
     v.resize(n);
-    std::memcpy(v.data(), buf.data() + pos, n * sizeof(T));
+    if (n) std::memcpy(v.data(), buf.data() + pos, n * sizeof(T));  // data() may be null when n == 0
     pos += n * sizeof(T);
     return v;
   }
