@@ -12,9 +12,9 @@
 //               vertices and everything constrained globally are required
 //   gather      the ranks send their improved parts back; rank 0 merges them
 //               into the global mesh and rebuilds its topology
-// Each round's threshold is max(G, min(0.6, worst alpha + 0.1)); rounds stop
-// after --rounds, or after two rounds in a row that did not raise the worst
-// alpha.  Then rank 0 proves the
+// Each round's threshold is max(G, min(0.6, worst alpha + 0.1 + 0.1 x rounds
+// in a row without gain)); rounds stop after --rounds, or after two rounds in
+// a row that did not raise the worst alpha by 0.001.  Then rank 0 proves the
 // promise on the whole mesh (check_invariants against the snapshot of IN)
 // and writes OUT; nothing is written when the proof fails.
 #include <mpi.h>
@@ -74,10 +74,11 @@ const char* kHelp =
     "  -q, --quiet          print nothing but errors    -v, --verbose  per-rank detail\n"
     "options of tetopt-mpi:\n"
     "  --rounds R           partition rounds (default 8; stops earlier after two\n"
-    "                       rounds in a row that do not raise the worst alpha).\n"
+    "                       rounds in a row that do not raise the worst alpha\n"
+    "                       by 0.001).\n"
     "                       A round's threshold is max(G, min(0.6, worst + 0.1 +\n"
     "                       0.1 x rounds in a row without gain))\n"
-    "  --per-rank DIR       also write DIR/part_<rank>.vtu (the last round's parts,\n"
+    "  --per-rank DIR       also write DIR/part_<rank>.vtu (a partition of the result,\n"
     "                       fields rank, region, alpha) and DIR/parts.pvtu\n";
 
 struct Args {
