@@ -77,7 +77,7 @@ struct TetMesh {
   /// True when the file stored tets in the opposite orientation; a writer of
   /// the same format (source_format) swaps local vertices kFlipA/kFlipB back
   /// so the file keeps its convention.  Writers of other formats use their
-  /// format's native convention (TetGen .ele: negative; all others: positive).
+  /// format's native convention (positive for all, TetGen .ele included).
   bool flipped_on_read = false;
   int source_format = 0;  ///< tetopt::Format the mesh was read from (io.hpp), 0 unknown
 

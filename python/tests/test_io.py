@@ -59,10 +59,17 @@ def test_point_data_survives_vtu(box, tmp_path):
 
 def test_orientation_convention_is_kept(box, tmp_path):
     mesh = tetopt.read(box)
-    tetopt.write(tmp_path / "a.node", mesh)  # TetGen stores negative tets
+    tetopt.write(tmp_path / "a.node", mesh)  # positive, as TetGen 1.5 writes
     back = tetopt.read(tmp_path / "a.node")
-    assert back.flipped_on_read and back.source_format == "tetgen"
+    assert not back.flipped_on_read and back.source_format == "tetgen"
     assert np.array_equal(back.tets, mesh.tets)  # positive in memory
+    # A negative (Stellar-style) .ele is flipped on read and written back negative.
+    neg = tetopt.Mesh(mesh.points, mesh.tets[:, [0, 1, 3, 2]], mesh.refs)
+    tetopt.write(tmp_path / "n.node", neg)
+    n = tetopt.read(tmp_path / "n.node")
+    assert n.flipped_on_read and np.array_equal(n.tets, mesh.tets)
+    tetopt.write(tmp_path / "n2.node", n)
+    assert (tmp_path / "n2.ele").read_text() == (tmp_path / "n.ele").read_text()
     q = tetopt.quality(back)
     assert q["inverted_or_flat"] == 0
 

@@ -11,12 +11,15 @@ namespace tetopt::detail {
 
 /// Whether a writer of format `target` must swap kFlipA/kFlipB: to restore
 /// the source file's own convention when writing the same format family
-/// (.mesh/.meshb, .vtk/.vtu), otherwise
-/// to use the target's native convention (TetGen: negative right-hand det).
+/// (.mesh/.meshb, .vtk/.vtu, .node/.ele); otherwise every format is written
+/// with a positive right-hand determinant, which is also what TetGen 1.5
+/// itself writes (checked: `tetgen -r` on an all-negative .ele writes the
+/// same tets back positive).  Stellar's .ele files (house2) are negative; they
+/// keep that when written back as TetGen.
 inline Format format_family(Format f) { return f == Format::MeditBinary ? Format::Medit : (f == Format::Vtu ? Format::Vtk : f); }
 inline bool write_flipped(const TetMesh& m, Format target) {
   if (format_family(target) == format_family(static_cast<Format>(m.source_format))) return m.flipped_on_read;
-  return target == Format::TetGen;
+  return false;
 }
 
 /// Vertex ids of tet t in the orientation a writer of `target` uses.

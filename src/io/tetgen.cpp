@@ -15,9 +15,11 @@
 // missing coordinates or vertex ids are errors.  Point ids must be
 // consecutive, since the other files refer to points by id.
 //
-// Orientation: TetGen's .ele tets have a negative right-hand determinant
-// (the opposite of conventions.hpp).  The reader keeps the file's order
-// (read_mesh normalises), the writer uses detail::file_tet(Format::TetGen).
+// Orientation: TetGen 1.5 writes .ele tets with a positive right-hand
+// determinant, as conventions.hpp; Stellar's files (e.g. house2) use the
+// negative one.  The reader keeps the file's order (read_mesh normalises by
+// majority), the writer uses detail::file_tet(Format::TetGen): the file's own
+// convention for a mesh read from .node/.ele, positive otherwise.
 //
 // What tetopt keeps: point markers -> vert_ref, the first tet attribute (the
 // region) -> tet_ref, faces -> tris / tri_ref.  Point attributes and further

@@ -61,7 +61,7 @@ void expect_bits_equal(const std::vector<double>& a, const std::vector<double>& 
 }
 
 const char* kNode = "4 3 0 1\n1 0 0 0 5\n2 1 0 0 0\n3 0 1 0 0\n4 0 0 1 6\n";     // lines 1-5
-const char* kEle = "1 4 1\n1 1 2 4 3 7\n";                                        // TetGen order: negative
+const char* kEle = "1 4 1\n1 1 2 4 3 7\n";                                        // negative (as Stellar's files)
 const char* kFace = "2 1\n1 1 2 3 3\n2 1 2 4 4\n";
 
 void expect_tg_error(const std::string& node, const std::string& ele, const std::string& face, ErrorCode code,
@@ -97,10 +97,9 @@ TEST(IoTetgen, RoundTripKeepsCoordinatesRefsAndFaces) {
     EXPECT_EQ(r.tris, m.tris);
     EXPECT_EQ(r.tri_ref, m.tri_ref);
     EXPECT_EQ(r.tet_ref, m.tet_ref);
-    // The file holds TetGen's native (negative) order: swapping 2 and 3 gives ours back.
+    // The file holds positive tets, as TetGen 1.5 writes them: ours, unchanged.
     ASSERT_EQ(r.tets.size(), m.tets.size());
-    EXPECT_EQ(count_sign(r, Sign::Negative), r.nt());
-    for (int32_t t = 0; t < r.nt(); ++t) std::swap(r.tets[4 * t + 2], r.tets[4 * t + 3]);
+    EXPECT_EQ(count_sign(r, Sign::Positive), r.nt());
     EXPECT_EQ(r.tets, m.tets);
   }
 }
@@ -116,8 +115,8 @@ TEST(IoTetgen, WrittenEleReadsBackAsTheSamePositiveTets) {
   OrientationReport rep;
   const Status s = read_mesh(ele, r, &rep);
   ASSERT_TRUE(s.ok()) << s.message;
-  EXPECT_TRUE(rep.flipped);
-  EXPECT_TRUE(r.flipped_on_read);
+  EXPECT_FALSE(rep.flipped);  // written positive, as TetGen 1.5 writes
+  EXPECT_FALSE(r.flipped_on_read);
   EXPECT_TRUE(rep.inverted.empty());
   EXPECT_EQ(count_sign(r, Sign::Positive), r.nt());
   EXPECT_EQ(r.tets, m.tets);
@@ -273,7 +272,7 @@ TEST(IoTetgenReal, House2) {
   ASSERT_TRUE(s.ok()) << s.message;
   EXPECT_EQ(m.nv(), 400);
   EXPECT_EQ(m.nt(), 1389);
-  EXPECT_TRUE(rep.flipped);  // TetGen's native negative orientation
+  EXPECT_TRUE(rep.flipped);  // Stellar's negative orientation
   EXPECT_TRUE(rep.inverted.empty());
   EXPECT_TRUE(rep.flat_tets.empty());
   EXPECT_EQ(count_sign(m, Sign::Positive), m.nt());
