@@ -27,7 +27,7 @@ class Driver {
  public:
   Driver(TetMesh& m, const ImproveOptions& o, ImproveReport& r, const LogFn& log,
          const std::atomic<bool>* interrupted)
-      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted), threads_(detail::resolve_threads(o.threads)) {
+      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted), threads_(o.threads) {
     // The passes' own Info lines are detail at the driver's level.
     if (log_)
       sub_log_ = [this](LogLevel l, const std::string& s) { log_(l == LogLevel::Info ? LogLevel::Debug : l, s); };
@@ -263,8 +263,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
   const auto t0 = Clock::now();
   if (m.adj.size() != m.tets.size()) return Status::error(ErrorCode::Invariant, "improve: topology not built");
   rep = ImproveReport{};
-  const int threads = detail::resolve_threads(opt.threads);
-  rep.before = compute_stats(m, threads);
+  rep.before = compute_stats(m, opt.threads);
   InvariantSnapshot snap;
   if (opt.check_invariants) {
     const auto tc = Clock::now();
@@ -298,7 +297,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
     rep.invariant_message = s.message;
     if (!s) return s;
   }
-  rep.after = compute_stats(m, threads);
+  rep.after = compute_stats(m, opt.threads);
   rep.seconds_total = since(t0);
   return Status::success();
 }

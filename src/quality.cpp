@@ -241,13 +241,13 @@ void stats_block(const TetMesh& m, int32_t t0, int32_t t1, StatsPart& p) {
 QualityStats compute_stats(const TetMesh& m, int threads) {
   const int32_t nt = m.nt();
   // Fixed blocks merged in order: the same numbers for every thread count.
-  const int64_t nb = (static_cast<int64_t>(nt) + detail::kBlock - 1) / detail::kBlock;
-  std::vector<StatsPart> parts(static_cast<size_t>(nb));
-  detail::parallel_blocks(nt, threads, [&](int64_t b, int64_t e) {
-    stats_block(m, static_cast<int32_t>(b), static_cast<int32_t>(e), parts[static_cast<size_t>(b / detail::kBlock)]);
-  });
   StatsPart all;
-  for (const StatsPart& p : parts) merge(all, p);
+  for (const StatsPart& p : detail::parallel_map_blocks(nt, threads, [&](int64_t b, int64_t e) {
+         StatsPart part;
+         stats_block(m, static_cast<int32_t>(b), static_cast<int32_t>(e), part);
+         return part;
+       }))
+    merge(all, p);
   QualityStats& s = all.s;
   s.tets = nt;
   s.dihedral_min = INFINITY;

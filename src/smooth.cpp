@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "detail/parallel.hpp"
 #include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/predicates.hpp"
@@ -638,12 +639,6 @@ class WorkerPool {
   bool quit_ = false;
 };
 
-int resolve_threads(int t) {
-  if (t > 0) return t;
-  const unsigned h = std::thread::hardware_concurrency();
-  return h > 0 ? static_cast<int>(h) : 1;
-}
-
 }  // namespace
 
 SmoothResult smooth_vertex(TetMesh& m, int32_t v, const SmoothOptions& o) {
@@ -660,7 +655,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
   SmoothStats st;
   const int32_t nv = m.nv(), nt = m.nt();
   const double C = clamp_weight(o.weight);
-  const int threads = resolve_threads(o.threads);
+  const int threads = detail::resolve_threads(o.threads);
   std::unique_ptr<WorkerPool> pool;
   auto get_pool = [&]() -> WorkerPool& {
     if (!pool) pool = std::make_unique<WorkerPool>(threads);

@@ -1200,18 +1200,17 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   TopoOptions d = o;
   d.measure = TopoMeasure::Dihedral;
-  double worst = kInf;
-  worst = detail::parallel_reduce_blocks(
-      m.nt(), o.threads, kInf,
-      [&](int64_t b, int64_t e) {
-        double w = kInf;
-        for (int64_t t = b; t < e; ++t) w = std::min(w, tet_alpha(m, static_cast<int32_t>(t)));
-        return w;
-      },
-      [](double x, double y) { return std::min(x, y); });
   // Default floor: the current worst alpha (never lowered).  A caller may
   // trade some worst alpha for angles by giving a lower floor explicitly.
-  if (!(d.alpha_floor > -1e300)) d.alpha_floor = worst;
+  if (!(d.alpha_floor > -1e300))
+    d.alpha_floor = detail::parallel_reduce_blocks(
+        m.nt(), o.threads, kInf,
+        [&](int64_t b, int64_t e) {
+          double w = kInf;
+          for (int64_t t = b; t < e; ++t) w = std::min(w, tet_alpha(m, static_cast<int32_t>(t)));
+          return w;
+        },
+        [](double x, double y) { return std::min(x, y); });
   TopoStats total;
   int64_t moves = 0;
   std::optional<TopoEditor> evaluator;

@@ -1,9 +1,7 @@
 // tetopt improve.
 #include <chrono>
 #include <cstdio>
-#include <algorithm>
 #include <fstream>
-#include <thread>
 
 #include "cli.hpp"
 #include "tetopt/diagnose.hpp"
@@ -180,7 +178,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     std::fputs("tetopt: interrupted; nothing written\n", stderr);
     return kExitInterrupted;
   }
-  wo.threads = opt.threads > 0 ? opt.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  wo.threads = opt.threads;
   s = write_mesh(out, m, wo);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -1,13 +1,11 @@
 // tetopt quality / convert, and the helpers every command shares.
 #include <unistd.h>
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <thread>
 
 #include "cli.hpp"
 #include "tetopt/diagnose.hpp"
@@ -66,7 +64,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
     return false;
   }
   if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
-  s = build_topology(m, threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  s = build_topology(m, threads);
   if (progress) std::fputs("\033[K", stderr);
   if (!s) {
     std::fprintf(stderr, "tetopt: %s: %s\n", path.c_str(), s.message.c_str());
@@ -140,13 +138,10 @@ int cmd_quality(const std::vector<std::string>& args) {
       if (d <= 0 || d > 1) { std::fputs("tetopt quality: --threshold must be in (0, 1]\n", stderr); return kExitUsage; }
       dopt.threshold = d;
     } else if (a == "--threads") {
-      double d = 0;
-      if (i + 1 >= args.size() || !parse_double(a, args[++i], d)) return kExitUsage;
-      if (d < 0 || d > 1024 || d != static_cast<int>(d)) {
-        std::fputs("tetopt quality: --threads must be an integer in 0..1024\n", stderr);
-        return kExitUsage;
-      }
-      threads = static_cast<int>(d);
+      long long n = 0;
+      if (i + 1 >= args.size() || !parse_int(a, args[++i], n)) return kExitUsage;
+      if (n < 0 || n > 1024) { std::fputs("tetopt quality: --threads must be in 0..1024\n", stderr); return kExitUsage; }
+      threads = static_cast<int>(n);
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "tetopt quality: unknown option '%s'\n\n%s", a.c_str(), kQualityHelp);
       return kExitUsage;
@@ -156,7 +151,7 @@ int cmd_quality(const std::vector<std::string>& args) {
   if (in.empty()) { std::fputs(kQualityHelp, stderr); return kExitUsage; }
   TetMesh m;
   if (!load_mesh(in, m, quiet || json, threads)) return kExitInput;
-  const QualityStats s = compute_stats(m, threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  const QualityStats s = compute_stats(m, threads);
   const Diagnosis diag = diagnose(m, dopt);
   if (json) {
     std::string js = stats_to_json(s);

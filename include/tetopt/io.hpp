@@ -36,7 +36,7 @@ struct WriteOptions {
   int msh_version = 41;       ///< 22 or 41 for .msh
   bool binary = false;        ///< binary .msh / .vtk; .meshb is always binary
   int meditb_version = 3;     ///< GMF version for .meshb: 2 (32-bit ints), 3 or 4 (64-bit)
-  int threads = 1;            ///< .mesh: format lines on this many threads (same bytes for any count)
+  int threads = 1;            ///< .mesh: format lines on this many threads, 0 = all cores (same bytes for any count)
 };
 
 /// Parses `data` (the bytes of a file named `name`, used in messages) into m's

@@ -123,8 +123,8 @@ OrientationReport normalize_orientation(TetMesh& m);
 /// Builds vertex->tet CSR, face adjacency and the constrained classification.
 /// Fails (InvalidMesh, naming tet ids) when a face is shared by three or more
 /// tets or two tets have the same four vertices.  threads: worker threads
-/// for the parallel parts; the result (and the error reported, the first in
-/// serial order) is the same for every count.
+/// for the parallel parts (0 = all cores); the result (and the error
+/// reported, the first in serial order) is the same for every count.
 Status build_topology(TetMesh& m, int threads = 1);
 
 /// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date).

@@ -60,7 +60,7 @@ struct QualityStats {
   int32_t worst_tet = -1;
 };
 
-/// threads: worker threads for the loop over tets; the result is the same
+/// threads: worker threads for the loop over tets (0 = all cores); the result is the same
 /// for every count (fixed blocks merged in order).
 QualityStats compute_stats(const TetMesh& m, int threads = 1);
 

@@ -123,7 +123,7 @@ struct TopoOptions {
   bool use_face_swap = true;       ///< 2-3 flips (multi-face removal with one face)
   bool use_edge_removal = true;    ///< edge removal, 3-2 and 4-4 included
   bool use_multi_face = true;      ///< multi-face removal with two or more faces
-  /// Threads for the O(nt) set-up loops (the measure cache); the operations
+  /// Threads for the O(nt) set-up loops (the measure cache; 0 = all cores); the operations
   /// themselves run in index order on one thread.  Results do not depend on it.
   int threads = 1;
 };

@@ -30,12 +30,15 @@ inline int resolve_threads(int t) {
   return h > 0 ? static_cast<int>(h) : 1;
 }
 
+inline int64_t block_count(int64_t n) { return n > 0 ? (n + kBlock - 1) / kBlock : 0; }
+
 /// Calls body(begin, end) for consecutive blocks covering [0, n), on up to
-/// `threads` threads (<= 1: the calling thread only).
+/// `threads` threads (1: the calling thread only; 0: all cores).
 template <class Body>
 void parallel_blocks(int64_t n, int threads, const Body& body) {
   if (n <= 0) return;
-  const int64_t nb = (n + kBlock - 1) / kBlock;
+  const int64_t nb = block_count(n);
+  threads = resolve_threads(threads);
 #ifdef TETOPT_HAVE_TBB
   // More threads than the hardware has only adds switching (and oneTBB warns
   // about the workers it cannot grant); the result does not depend on it.
@@ -62,17 +65,21 @@ void parallel_for_each(int64_t n, int threads, const F& f) {
   });
 }
 
+/// The per-block results block_fn(begin, end) -> T, in block order.
+template <class BlockFn>
+auto parallel_map_blocks(int64_t n, int threads, const BlockFn& block_fn) {
+  std::vector<decltype(block_fn(int64_t{}, int64_t{}))> part(static_cast<size_t>(block_count(n)));
+  parallel_blocks(n, threads, [&](int64_t b, int64_t e) { part[static_cast<size_t>(b / kBlock)] = block_fn(b, e); });
+  return part;
+}
+
 /// Reduction with a result independent of the thread count: block_fn(begin,
 /// end) -> T per block, then join(acc, block_result) in block order,
 /// starting from init.
 template <class T, class BlockFn, class Join>
 T parallel_reduce_blocks(int64_t n, int threads, T init, const BlockFn& block_fn, const Join& join) {
-  if (n <= 0) return init;
-  const int64_t nb = (n + kBlock - 1) / kBlock;
-  std::vector<T> part(static_cast<size_t>(nb), init);
-  parallel_blocks(n, threads, [&](int64_t b, int64_t e) { part[static_cast<size_t>(b / kBlock)] = block_fn(b, e); });
   T acc = init;
-  for (const T& p : part) acc = join(acc, p);
+  for (const T& p : parallel_map_blocks(n, threads, block_fn)) acc = join(acc, p);
   return acc;
 }
 

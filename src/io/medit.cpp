@@ -896,14 +896,13 @@ Status format_medit(const TetMesh& m, std::string& out, int threads) {
     // Vertex and tet lines are formatted in fixed blocks (in parallel with
     // threads > 1) and appended in order: the same bytes for any count.
     auto blocks = [&](int64_t n, auto&& line) {
-      const int64_t nb = (n + detail::kBlock - 1) / detail::kBlock;
-      std::vector<std::string> part(static_cast<size_t>(nb));
-      detail::parallel_blocks(n, threads, [&](int64_t b, int64_t e) {
-        std::string& o = part[static_cast<size_t>(b / detail::kBlock)];
-        o.reserve(static_cast<size_t>(e - b) * 64);
-        for (int64_t i = b; i < e; ++i) line(o, i);
-      });
-      for (const std::string& p : part) out += p;
+      for (const std::string& p : detail::parallel_map_blocks(n, threads, [&](int64_t b, int64_t e) {
+             std::string o;
+             o.reserve(static_cast<size_t>(e - b) * 64);
+             for (int64_t i = b; i < e; ++i) line(o, i);
+             return o;
+           }))
+        out += p;
     };
     blocks(m.nv(), [&](std::string& o, int64_t i) {
       const auto v = static_cast<int32_t>(i);
