@@ -663,19 +663,12 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
   };
 
   // Per-tet alpha cache: the caller's when it has the right size (trusted),
-  // else computed here (in parallel blocks: every entry is independent).
+  // else computed here (detail::parallel_for_each: every entry is independent).
   std::vector<double> own_cache;
   std::vector<double>& qa = alpha_cache ? *alpha_cache : own_cache;
   if (static_cast<int32_t>(qa.size()) != nt) {
     qa.resize(nt);
-    constexpr int32_t kBlock = 8192;
-    const int64_t blocks = (static_cast<int64_t>(nt) + kBlock - 1) / kBlock;
-    auto fill = [&](int64_t b) {
-      const int32_t e = static_cast<int32_t>(std::min<int64_t>(nt, (b + 1) * kBlock));
-      for (int32_t t = static_cast<int32_t>(b * kBlock); t < e; ++t) qa[t] = tet_alpha(m, t);
-    };
-    if (threads > 1 && blocks > 1) get_pool().run(blocks, 1, fill);
-    else for (int64_t b = 0; b < blocks; ++b) fill(b);
+    detail::parallel_for_each(nt, threads, [&](int64_t t) { qa[t] = tet_alpha(m, static_cast<int32_t>(t)); });
   }
   // f of eq. 3.4 from the cache: sum of w_T / alpha_T in tet order.
   auto objective = [&] {
