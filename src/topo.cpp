@@ -26,6 +26,10 @@
 #include "tetopt/quality.hpp"
 #include "detail/parallel.hpp"
 
+#ifdef TETOPT_HAVE_TBB
+#include <tbb/enumerable_thread_specific.h>
+#endif
+
 namespace tetopt {
 
 namespace {
@@ -214,7 +218,8 @@ bool TopoEditor::alive(int32_t t) const {
 
 // ---------------------------------------------------------------------------
 // Edge removal: gather the shell of edge (a,b), triangulate the ring by DP.
-TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c) {
+TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c, double bound,
+                                 std::vector<int32_t>* reads) const {
   if (!alive(t) || le < 0 || le > 5) return TopoResult::NotApplicable;
   const int32_t* tv = m_.tet(t);
   int p[4] = {kEdgeVertex[le][0], kEdgeVertex[le][1], 0, 0};
@@ -226,6 +231,12 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   }
   // orient(a, b, ring[i], ring[i+1]) > 0 for every shell tet (a, b, r_i, r_i+1).
   const int32_t a = tv[p[0]], b = tv[p[1]];
+  // Every tet read below (the shell and the neighbours across its faces)
+  // contains both a and b.
+  if (reads) {
+    reads->push_back(a);
+    reads->push_back(b);
+  }
   if (!listed_edges_.empty() && std::binary_search(listed_edges_.begin(), listed_edges_.end(), edge_key(a, b)))
     return TopoResult::BoundaryLocked;
   int32_t ring[kMaxShell + 2], shell[kMaxShell + 1];
@@ -288,7 +299,7 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   // Branch and bound: a triangulation whose worst alpha does not exceed
   // `floor` is refused anyway (policy, or a better option already found by
   // improve_tet), so triangles at or below it are never evaluated twice.
-  double floor = bound_;
+  double floor = bound;
   if (strict || o_.must_improve) floor = std::max(floor, c.old_min + o_.margin);
   for (int i = 0; i + 1 < n; ++i) q[i][i + 1] = kInf;
   for (int len = 2; len < n; ++len)
@@ -343,7 +354,8 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
 
 // ---------------------------------------------------------------------------
 // Multi-face removal: faces sandwiched between apexes a (side of t) and b.
-TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c) {
+TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c,
+                                  std::vector<int32_t>* reads) const {
   if (!alive(t) || lf < 0 || lf > 3) return TopoResult::NotApplicable;
   max_tris = std::min(max_tris, o_.max_shell - 2);
   if (max_tris < 1) return TopoResult::ShellTooLarge;
@@ -364,6 +376,13 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
   const int32_t nb0 = m_.adj[4 * static_cast<size_t>(t) + lf];
   const int32_t a = m_.tets[4 * static_cast<size_t>(t) + lf];
   const int32_t b = m_.tets[nb0];
+  // Every tet read below is (a or b) + a sandwich triangle, or a neighbour
+  // across a face (a or b, x, y) of one, x and y on a triangle: the
+  // triangles' vertices plus a and b cover two vertices of each.
+  if (reads) {
+    reads->push_back(a);
+    reads->push_back(b);
+  }
   // Sandwich triangles, oriented with their normal towards b.
   struct Tri {
     int32_t v[3];
@@ -385,6 +404,7 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
   }
   for (int i = 0; i < nt; ++i) {
     Tri& r = tri[i];
+    if (reads) reads->insert(reads->end(), r.v, r.v + 3);
     for (int e = 0; e < 3; ++e) {
       r.child[e] = -1;
       r.take[e] = false;
@@ -483,7 +503,7 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
 // ---------------------------------------------------------------------------
 // Shared tail of every plan: kind-4 count, exact orientation, policy, and the
 // combinatorial check that the new tets fill exactly the cavity.
-TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) {
+TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
   c.k4_new = 0;
   double worst = kInf, worst_k4 = kInf;
   for (int i = 0; i < c.n_new; ++i) {
@@ -668,19 +688,19 @@ void TopoEditor::count(const Candidate& c) {
 
 // ---------------------------------------------------------------------------
 TopoResult TopoEditor::flip_23(int32_t t, int lf) {
-  TopoResult r = plan_multi(t, lf, 1, false, *cand_);
+  TopoResult r = plan_multi(t, lf, 1, false, *cand_, nullptr);
   if (r == TopoResult::Applied) commit(*cand_);
   return r;
 }
 
 TopoResult TopoEditor::flip_32(int32_t t, int le) {
-  TopoResult r = plan_edge(t, le, 3, false, *cand_);
+  TopoResult r = plan_edge(t, le, 3, false, *cand_, -kInf, nullptr);
   if (r == TopoResult::Applied) commit(*cand_);
   return r;
 }
 
 TopoResult TopoEditor::flip_44(int32_t t, int le) {
-  TopoResult r = plan_edge(t, le, 4, false, *cand_);
+  TopoResult r = plan_edge(t, le, 4, false, *cand_, -kInf, nullptr);
   if (r == TopoResult::Applied) commit(*cand_);
   return r;
 }
@@ -688,19 +708,19 @@ TopoResult TopoEditor::flip_44(int32_t t, int le) {
 TopoResult TopoEditor::flip_22(int32_t t, int le) {
   // A 2-2 flip needs an edge with exactly two tets: such an edge lies on the
   // domain boundary and the flip would replace its two boundary faces.
-  TopoResult r = plan_edge(t, le, 2, true, *cand_);
+  TopoResult r = plan_edge(t, le, 2, true, *cand_, -kInf, nullptr);
   if (r == TopoResult::BoundaryLocked || r == TopoResult::RegionMismatch) return TopoResult::BoundaryLocked;
   return TopoResult::NotApplicable;
 }
 
 TopoResult TopoEditor::remove_edge(int32_t t, int le) {
-  TopoResult r = plan_edge(t, le, 0, false, *cand_);
+  TopoResult r = plan_edge(t, le, 0, false, *cand_, -kInf, nullptr);
   if (r == TopoResult::Applied) commit(*cand_);
   return r;
 }
 
 TopoResult TopoEditor::remove_multi_face(int32_t t, int lf) {
-  TopoResult r = plan_multi(t, lf, o_.max_shell - 2, false, *cand_);
+  TopoResult r = plan_multi(t, lf, o_.max_shell - 2, false, *cand_, nullptr);
   if (r == TopoResult::Applied) commit(*cand_);
   return r;
 }
@@ -918,8 +938,13 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   return TopoResult::Applied;
 }
 
-TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
+TopoResult TopoEditor::plan_best(int32_t t, bool strict, Candidate*& cand, Candidate*& best,
+                                 std::vector<int32_t>* reads) const {
   if (!alive(t)) return TopoResult::NotApplicable;
+  if (reads) {
+    const int32_t* tv = m_.tet(t);
+    reads->insert(reads->end(), tv, tv + 4);
+  }
   bool have = false;
   // Most informative refusal when nothing applies (order of preference).
   TopoResult why = TopoResult::NotApplicable;
@@ -933,32 +958,111 @@ TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
       default: return 0;
     }
   };
+  // Branch and bound: later options must beat the best so far (ties on
+  // alpha may still win on the kind-4 count, hence nextafter).
+  double bound = -kInf;
   auto consider = [&](TopoResult r) {
     if (r == TopoResult::Applied) {
       // Better: higher worst alpha; on ties fewer kind-4 tets; then first.
-      if (!have || cand_->new_min > best_->new_min ||
-          (cand_->new_min == best_->new_min && cand_->k4_new < best_->k4_new)) {
-        std::swap(cand_, best_);
+      if (!have || cand->new_min > best->new_min ||
+          (cand->new_min == best->new_min && cand->k4_new < best->k4_new)) {
+        std::swap(cand, best);
         have = true;
       }
     } else if (rank(r) > rank(why)) {
       why = r;
     }
-    // Later options must beat the best so far (ties on alpha may still win
-    // on the kind-4 count, hence nextafter).
-    if (have) bound_ = std::nextafter(best_->new_min, -kInf);
+    if (have) bound = std::nextafter(best->new_min, -kInf);
   };
-  bound_ = -kInf;
   if (o_.use_edge_removal)
-    for (int le = 0; le < 6; ++le) consider(plan_edge(t, le, 0, strict, *cand_));
+    for (int le = 0; le < 6; ++le) consider(plan_edge(t, le, 0, strict, *cand, bound, reads));
   for (int lf = 0; lf < 4; ++lf) {
-    if (o_.use_face_swap) consider(plan_multi(t, lf, 1, strict, *cand_));
-    if (o_.use_multi_face) consider(plan_multi(t, lf, o_.max_shell - 2, strict, *cand_));
+    if (o_.use_face_swap) consider(plan_multi(t, lf, 1, strict, *cand, reads));
+    if (o_.use_multi_face) consider(plan_multi(t, lf, o_.max_shell - 2, strict, *cand, reads));
   }
-  bound_ = -kInf;
-  if (!have) return why;
-  commit(*best_);
-  return TopoResult::Applied;
+  return have ? TopoResult::Applied : why;
+}
+
+TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
+  const TopoResult r = plan_best(t, strict, cand_, best_, nullptr);
+  if (r == TopoResult::Applied) commit(*best_);
+  return r;
+}
+
+int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, bool kind4_only, double threshold) {
+  auto eligible = [&](int32_t t) {
+    return alive(t) && (!kind4_only || m_.tet_kind[t] == 4) && below(t, threshold);
+  };
+  int64_t changed = 0;
+#ifdef TETOPT_HAVE_TBB
+  // Windows of W tets.  Planning reads only (a deferred dihedral measure
+  // would write its cache, hence lb_.empty()).  A commit stamps every vertex
+  // of the cavity it rewrites with an epoch >= s0, and every tet it changes
+  // (removed, rewritten, or an outer neighbour whose adjacency it updates)
+  // has at least three of its four vertices in the cavity; a plan records
+  // two vertices of every tet it read, so a plan that read a changed tet
+  // sees a stamp >= s0 and is redone on the current mesh.  Otherwise it read
+  // exactly what the serial loop would read at that point, and its outcome
+  // (applied option or refusal) is the serial one.
+  const int threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
+  constexpr size_t W = 512;
+  if (threads > 1 && lb_.empty() && work.size() > W) {
+    struct Plan {
+      uint8_t state = 0;  // 0 not planned (not eligible at the window's start), 1 refused, 2 applied
+      std::vector<int32_t> reads;
+    };
+    std::vector<Plan> plan(W);
+    std::vector<Candidate> chosen(W);
+    struct Scratch {
+      Candidate a, b;
+    };
+    tbb::enumerable_thread_specific<Scratch> scratch;
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      for (size_t w0 = 0; w0 < work.size(); w0 += W) {
+        const size_t n = std::min(W, work.size() - w0);
+        const uint32_t s0 = next_stamp();
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8), [&](const tbb::blocked_range<size_t>& r) {
+          Scratch& sc = scratch.local();
+          for (size_t i = r.begin(); i < r.end(); ++i) {
+            const int32_t t = work[w0 + i];
+            Plan& p = plan[i];
+            p.reads.clear();
+            if (!eligible(t)) {
+              p.state = 0;
+              continue;
+            }
+            Candidate* c = &sc.a;
+            Candidate* b = &sc.b;
+            if (plan_best(t, strict, c, b, &p.reads) == TopoResult::Applied) {
+              chosen[i] = *b;
+              p.state = 2;
+            } else {
+              p.state = 1;
+            }
+          }
+        });
+        for (size_t i = 0; i < n; ++i) {
+          const int32_t t = work[w0 + i];
+          if (!eligible(t)) continue;
+          const Plan& p = plan[i];
+          bool valid = p.state != 0;
+          for (size_t k = 0; valid && k < p.reads.size(); ++k) valid = vstamp_[p.reads[k]] < s0;
+          if (!valid) {
+            changed += improve_tet(t, strict) == TopoResult::Applied;
+          } else if (p.state == 2) {
+            commit(chosen[i]);
+            ++changed;
+          }
+        }
+      }
+    });
+    return changed;
+  }
+#endif
+  for (const int32_t t : work)
+    if (eligible(t) && improve_tet(t, strict) == TopoResult::Applied) ++changed;
+  return changed;
 }
 
 // ---------------------------------------------------------------------------
@@ -1067,20 +1171,9 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
           work.push_back(t);
       }
       prev_stamp = stamp;
-      int64_t changed = 0;
-      for (int32_t t : work) {
-        if (!ed.alive(t)) continue;
-        if (kind == PassKind::AllBoundary) {
-          if (m.tet_kind[t] != 4 || !ed.below(t, o.quality_threshold)) continue;
-          if (ed.improve_tet(t, false) == TopoResult::Applied) {
-            ++changed;
-            ++ed.stats().all_boundary_removed;
-          }
-        } else {
-          if (!ed.below(t, o.quality_threshold)) continue;
-          if (ed.improve_tet(t, true) == TopoResult::Applied) ++changed;
-        }
-      }
+      const bool all_boundary = kind == PassKind::AllBoundary;
+      const int64_t changed = ed.improve_tets(work, !all_boundary, all_boundary, o.quality_threshold);
+      if (all_boundary) ed.stats().all_boundary_removed += changed;
       ++ed.stats().passes;
       if (log)
         log(LogLevel::Info, std::string(kind == PassKind::AllBoundary ? "topo all-boundary" : "topo flip") +

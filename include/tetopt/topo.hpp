@@ -201,6 +201,14 @@ class TopoEditor {
   /// improvement even when TopoOptions::must_improve is false (flip_pass).
   /// Returns Applied, or the most telling refusal among the options.
   TopoResult improve_tet(int32_t t, bool strict);
+  /// improve_tet on every tet of `work`, in order, that is alive, below
+  /// `threshold` and (kind4_only) of kind 4 when its turn comes; returns the
+  /// number applied.  With TopoOptions::threads > 1 the options of a window
+  /// of tets are planned in parallel on the mesh as it was when the window
+  /// began, then committed in order; a plan is used only when no commit of
+  /// the window touched a tet it read (otherwise the tet is planned again),
+  /// so the result is the serial loop's, bit for bit, for every thread count.
+  int64_t improve_tets(const std::vector<int32_t>& work, bool strict, bool kind4_only, double threshold);
 
   bool alive(int32_t t) const;      ///< t is a live tet (not a tombstone)
   /// The option's measure of tet (a, b, c, d) (alpha by default), -inf below
@@ -240,9 +248,19 @@ class TopoEditor {
   struct Candidate;  // scratch (defined in topo.cpp)
 
  private:
-  TopoResult plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c);
-  TopoResult plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c);
-  TopoResult finish_plan(bool strict, Candidate& c);
+  // Planning never writes the mesh or the editor (const; with a deferred
+  // dihedral measure cached_alpha() fills the mutable cache).  `reads`, when
+  // given, receives vertices such that every tet the plan read has at least
+  // two of them among its vertices (see improve_tets).
+  TopoResult plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c, double bound,
+                       std::vector<int32_t>* reads) const;
+  TopoResult plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c,
+                        std::vector<int32_t>* reads) const;
+  TopoResult finish_plan(bool strict, Candidate& c) const;
+  // improve_tet without the commit: the chosen option ends in *best (the two
+  // scratch pointers are swapped while options are compared).
+  TopoResult plan_best(int32_t t, bool strict, Candidate*& cand, Candidate*& best,
+                       std::vector<int32_t>* reads) const;
   void commit(const Candidate& c);
   void count(const Candidate& c);
 
@@ -260,7 +278,6 @@ class TopoEditor {
   std::vector<int32_t> free_;
   std::vector<uint32_t> vstamp_;  // per vertex: epoch of the last commit touching it
   uint32_t stamp_ = 1;
-  double bound_ = -1e300;  // improve_tet: options must beat this worst alpha (branch and bound)
   std::vector<uint64_t> listed_edges_;
   std::vector<int32_t> listed_tris_;  // sorted triples, flattened
   Candidate* cand_ = nullptr;         // two scratch candidates (current, best)

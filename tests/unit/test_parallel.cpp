@@ -10,9 +10,11 @@
 #include "tetopt/conventions.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/improve.hpp"
+#include "tetopt/invariants.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/quality.hpp"
+#include "tetopt/topo.hpp"
 
 using namespace tetopt;
 
@@ -159,4 +161,46 @@ TEST(Parallel, MeditWriterGivesTheSameBytes) {
   EXPECT_EQ(back.tets, m.tets);
   ASSERT_EQ(back.xyz.size(), m.xyz.size());
   EXPECT_EQ(std::memcmp(back.xyz.data(), m.xyz.data(), m.xyz.size() * sizeof(double)), 0);
+}
+
+// The flip passes plan windows of 512 tets in parallel and commit in order
+// (TopoEditor::improve_tets).  A pass with thousands of operations, many of
+// them next to each other (so plans are invalidated and redone), must give
+// the serial pass's mesh and counts for every thread count, and keep the
+// promise (constrained vertices and faces, no inverted tet, region volumes).
+TEST(Parallel, FlipPassesAreTheSerialOnesForEveryThreadCount) {
+  TetMesh base = jittered_box();
+  ASSERT_TRUE(build_topology(base));
+  const InvariantSnapshot snap = capture_invariants(base);
+  std::vector<TetMesh> out;
+  std::vector<TopoStats> stats;
+  for (int threads : {1, 2, 4}) {
+    TetMesh m = base;
+    TopoOptions o;
+    o.threads = threads;
+    o.quality_threshold = 0.7;  // most tets of the jittered box: long work lists
+    TopoStats st = remove_all_boundary_tets(m, o, {});
+    ASSERT_TRUE(st.status);
+    TopoStats fp = flip_pass(m, o, {});
+    ASSERT_TRUE(fp.status);
+    st.flip32 += fp.flip32;
+    st.flip23 += fp.flip23;
+    st.flip44 += fp.flip44;
+    st.edge_removals += fp.edge_removals;
+    st.multi_face_removals += fp.multi_face_removals;
+    ASSERT_TRUE(check_invariants(m, snap)) << "threads " << threads;
+    out.push_back(std::move(m));
+    stats.push_back(st);
+  }
+  EXPECT_GT(stats[0].flip32 + stats[0].flip23 + stats[0].multi_face_removals + stats[0].edge_removals, 1000);
+  for (size_t i = 1; i < out.size(); ++i) {
+    EXPECT_EQ(out[i].tets, out[0].tets);
+    EXPECT_EQ(out[i].adj, out[0].adj);
+    EXPECT_EQ(out[i].face_mask, out[0].face_mask);
+    EXPECT_EQ(stats[i].flip32, stats[0].flip32);
+    EXPECT_EQ(stats[i].flip23, stats[0].flip23);
+    EXPECT_EQ(stats[i].flip44, stats[0].flip44);
+    EXPECT_EQ(stats[i].multi_face_removals, stats[0].multi_face_removals);
+    EXPECT_EQ(stats[i].all_boundary_removed, stats[0].all_boundary_removed);
+  }
 }
