@@ -203,8 +203,18 @@ double TopoEditor::deferred(int32_t t) const {
 }
 
 double TopoEditor::min_cached() const {
-  double lo = kInf;
   const int32_t nt = m_.nt();
+  if (lb_.empty())  // nothing deferred: a plain minimum over the live tets
+    return detail::parallel_reduce_blocks(
+        nt, o_.threads, kInf,
+        [&](int64_t b, int64_t e) {
+          double lo = kInf;
+          for (int64_t t = b; t < e; ++t)
+            if (alive(static_cast<int32_t>(t))) lo = std::min(lo, alpha_[t]);
+          return lo;
+        },
+        [](double x, double y) { return std::min(x, y); });
+  double lo = kInf;
   for (int32_t t = 0; t < nt; ++t)
     if (alive(t) && alpha_[t] == alpha_[t]) lo = std::min(lo, alpha_[t]);
   for (int32_t t = 0; t < nt; ++t)
@@ -1143,6 +1153,17 @@ bool topology_current(const TetMesh& m) {
 
 enum class PassKind { AllBoundary, Quality };
 
+int64_t count_kind4(const TetMesh& m, int threads) {
+  return detail::parallel_reduce_blocks(
+      m.nt(), threads, int64_t{0},
+      [&](int64_t b, int64_t e) {
+        int64_t k = 0;
+        for (int64_t t = b; t < e; ++t) k += m.tet_kind[t] == 4;
+        return k;
+      },
+      [](int64_t x, int64_t y) { return x + y; });
+}
+
 TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKind kind,
                      std::vector<double>* alpha_cache) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -1154,7 +1175,7 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
   st.tets_before = m.nt();
   {
     TopoEditor ed(m, o, alpha_cache);
-    for (int32_t t = 0; t < m.nt(); ++t) st.kind4_before += m.tet_kind[t] == 4;
+    st.kind4_before = count_kind4(m, o.threads);
     st.alpha_worst_before = ed.min_cached();
     std::vector<int32_t> work;
     uint32_t prev_stamp = 0;
@@ -1164,11 +1185,21 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
       // and sandwiches (geometry does not move here) and fail again.
       const uint32_t stamp = ed.next_stamp();
       work.clear();
-      for (int32_t t = 0; t < m.nt(); ++t) {
-        if (!ed.alive(t)) continue;
-        if (p > 0 && !ed.touched_since(t, prev_stamp)) continue;
-        if ((kind == PassKind::Quality || m.tet_kind[t] == 4) && ed.below(t, o.quality_threshold))
-          work.push_back(t);
+      auto wanted = [&](int32_t t) {
+        return ed.alive(t) && (p == 0 || ed.touched_since(t, prev_stamp)) &&
+               (kind == PassKind::Quality || m.tet_kind[t] == 4) && ed.below(t, o.quality_threshold);
+      };
+      if (ed.deferring()) {  // below() may fill the deferred cache: serial
+        for (int32_t t = 0; t < m.nt(); ++t)
+          if (wanted(t)) work.push_back(t);
+      } else {  // per-block lists joined in block order: the serial list
+        for (const auto& part : detail::parallel_map_blocks(m.nt(), o.threads, [&](int64_t b, int64_t e) {
+               std::vector<int32_t> w;
+               for (int64_t t = b; t < e; ++t)
+                 if (wanted(static_cast<int32_t>(t))) w.push_back(static_cast<int32_t>(t));
+               return w;
+             }))
+          work.insert(work.end(), part.begin(), part.end());
       }
       prev_stamp = stamp;
       const bool all_boundary = kind == PassKind::AllBoundary;
@@ -1183,7 +1214,7 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
     }
     st.alpha_worst_after = ed.min_cached();
     ed.finish();
-    for (int32_t t = 0; t < m.nt(); ++t) st.kind4_after += m.tet_kind[t] == 4;
+    st.kind4_after = count_kind4(m, o.threads);
     const TopoStats& es = ed.stats();
     st.flip23 = es.flip23;
     st.flip32 = es.flip32;

@@ -229,6 +229,9 @@ class TopoEditor {
   /// Smallest cached measure over the live tets (deferred entries are
   /// computed only when their lower bound could beat the minimum).
   double min_cached() const;
+  /// True when some measures are deferred (see fill_cache): then below() and
+  /// cached_alpha() may write the cache and must not run concurrently.
+  bool deferring() const { return !lb_.empty(); }
   /// Starts a new change epoch and returns it: every commit stamps the
   /// vertices of its new tets with the current epoch.
   uint32_t next_stamp() { return ++stamp_; }
