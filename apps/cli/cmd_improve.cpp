@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "cli.hpp"
+#include "improve_args.hpp"
 #include "tetopt/diagnose.hpp"
 #include "tetopt/html_report.hpp"
 #include "tetopt/improve.hpp"
@@ -68,82 +69,23 @@ static const char* kImproveHelp =
     "  tetopt improve pump.msh -o pump_opt.msh --mode combined --weight 0.8 --report r.json\n";
 
 int cmd_improve(const std::vector<std::string>& args) {
-  std::string in, out, report_path, field, html;
-  ImproveOptions opt;
-  WriteOptions wo;
-  bool quiet = false, verbose = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](std::string& dst) {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "tetopt improve: %s needs a value\n", a.c_str());
-        return false;
-      }
-      dst = args[++i];
-      return true;
-    };
-    std::string v;
-    double d = 0;
-    long long n = 0;
-    if (a == "-h" || a == "--help") { std::fputs(kImproveHelp, stdout); return kExitOk; }
-    else if (a == "-o" || a == "--output") { if (!value(out)) return kExitUsage; }
-    else if (a == "--report") { if (!value(report_path)) return kExitUsage; }
-    else if (a == "--field") { if (!value(field)) return kExitUsage; }
-    else if (a == "--html") { if (!value(html)) return kExitUsage; }
-    else if (a == "-q" || a == "--quiet") quiet = true;
-    else if (a == "-v" || a == "--verbose") verbose = true;
-    else if (a == "--binary") wo.binary = true;
-    else if (a == "--no-check") opt.check_invariants = false;
-    else if (a == "--allow-insert") opt.allow_insert = true;
-    else if (a == "--mode") {
-      if (!value(v)) return kExitUsage;
-      if (v == "smooth") opt.mode = ImproveMode::Smooth;
-      else if (v == "topo") opt.mode = ImproveMode::Topo;
-      else if (v == "combined") opt.mode = ImproveMode::Combined;
-      else if (v == "best") opt.mode = ImproveMode::Best;
-      else { std::fprintf(stderr, "tetopt improve: --mode is smooth, topo, combined or best, not '%s'\n", v.c_str()); return kExitUsage; }
-    } else if (a == "--optimizer") {
-      if (!value(v)) return kExitUsage;
-      if (v == "paper") opt.maxmin_optimizer = false;
-      else if (v == "maxmin") opt.maxmin_optimizer = true;
-      else { std::fprintf(stderr, "tetopt improve: --optimizer is paper or maxmin, not '%s'\n", v.c_str()); return kExitUsage; }
-    } else if (a == "--weight") {
-      if (!value(v) || !parse_double(a, v, d)) return kExitUsage;
-      if (d < 0.5 || d >= 1) { std::fputs("tetopt improve: --weight must satisfy 0.5 <= C < 1\n", stderr); return kExitUsage; }
-      opt.weight = d;
-    } else if (a == "--threshold") {
-      if (!value(v) || !parse_double(a, v, d)) return kExitUsage;
-      if (d <= 0 || d > 1) { std::fputs("tetopt improve: --threshold must be in (0, 1]\n", stderr); return kExitUsage; }
-      opt.threshold = d;
-    } else if (a == "--iterations") {
-      if (!value(v) || !parse_int(a, v, n)) return kExitUsage;
-      if (n < 0 || n > 1000000) { std::fputs("tetopt improve: --iterations must be in 0..1000000\n", stderr); return kExitUsage; }
-      opt.iterations = static_cast<int>(n);
-    } else if (a == "--seed") {
-      if (!value(v) || !parse_int(a, v, n)) return kExitUsage;
-      opt.seed = static_cast<uint64_t>(n);
-    } else if (a == "--threads") {
-      if (!value(v) || !parse_int(a, v, n)) return kExitUsage;
-      if (n < 0 || n > 1024) { std::fputs("tetopt improve: --threads must be in 0..1024\n", stderr); return kExitUsage; }
-      opt.threads = static_cast<int>(n);
-    } else if (a == "--msh-version") {
-      if (!value(v) || !parse_int(a, v, n)) return kExitUsage;
-      if (n != 22 && n != 41) { std::fputs("tetopt improve: --msh-version is 22 or 41\n", stderr); return kExitUsage; }
-      wo.msh_version = static_cast<int>(n);
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetopt improve: unknown option '%s'\n\n%s", a.c_str(), kImproveHelp);
-      return kExitUsage;
-    } else if (in.empty()) in = a;
-    else { std::fprintf(stderr, "tetopt improve: unexpected argument '%s'\n", a.c_str()); return kExitUsage; }
+  ImproveArgs a;
+  std::string field, html;  // options of tetopt improve only
+  const std::vector<ExtraOption> extra = {
+      {{"--field"}, true, [&](const std::string& v, std::string&) { field = v; return true; }},
+      {{"--html"}, true, [&](const std::string& v, std::string&) { html = v; return true; }},
+  };
+  std::string err;
+  switch (parse_improve_args(args, {"tetopt improve", "tetopt"}, extra, a, err)) {
+    case ImproveArgsResult::Ok: break;
+    case ImproveArgsResult::Help: std::fputs(kImproveHelp, stdout); return kExitOk;
+    case ImproveArgsResult::Error: std::fprintf(stderr, "%s\n", err.c_str()); return kExitUsage;
+    case ImproveArgsResult::ErrorWithHelp: std::fprintf(stderr, "%s\n\n%s", err.c_str(), kImproveHelp); return kExitUsage;
   }
-  if (in.empty() || out.empty()) {
-    std::fprintf(stderr, "tetopt improve: %s\n\n%s", in.empty() ? "no input mesh" : "no output (-o OUT)", kImproveHelp);
-    return kExitUsage;
-  }
-  if (format_from_path(out) == Format::Unknown) {
-    std::fprintf(stderr, "tetopt improve: %s: unknown output extension\n", out.c_str());
-    return kExitUsage;
-  }
+  const std::string &in = a.in, &out = a.out, &report_path = a.report;
+  ImproveOptions& opt = a.opt;
+  WriteOptions& wo = a.wo;
+  const bool quiet = a.quiet, verbose = a.verbose;
   const auto t0 = std::chrono::steady_clock::now();
   TetMesh m;
   if (!load_mesh(in, m, quiet, opt.threads)) return kExitInput;

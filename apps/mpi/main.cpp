@@ -31,6 +31,7 @@
 #include <thread>
 #include <vector>
 
+#include "../cli/improve_args.hpp"
 #include "distribute.hpp"
 #include "tetopt/improve.hpp"
 #include "tetopt/invariants.hpp"
@@ -81,83 +82,41 @@ const char* kHelp =
     "  --per-rank DIR       also write DIR/part_<rank>.vtu (a partition of the result,\n"
     "                       fields rank, region, alpha) and DIR/parts.pvtu\n";
 
-struct Args {
-  std::string in, out, report, per_rank;
-  ImproveOptions opt;
-  WriteOptions wo;
+// The options of tetopt improve (in, out, report, opt, wo, quiet, verbose;
+// parsed by apps/cli/improve_args.cpp, as in tetopt improve) plus tetopt-mpi's own.
+struct Args : tetopt_cli::ImproveArgs {
+  std::string per_rank;
   int rounds = 8;
-  bool quiet = false, verbose = false;
 };
 
 double now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// 0 ok, >0 exit code (usage), -1 help printed.
+// 0 ok, >0 exit code (usage), -1 help printed.  The improve options are
+// parsed by the parser of tetopt improve; --rounds and --per-rank here.
 int parse_args(int argc, char** argv, Args& a, std::string& err) {
   std::vector<std::string> v(argv + 1, argv + argc);
   if (v.empty() || v[0] == "-h" || v[0] == "--help") return -1;
-  if (v[0] != "improve") { err = "unknown command '" + v[0] + "' (only 'improve')"; return kExitUsage; }
-  auto num = [&](const std::string& o, const std::string& s, double& d) {
-    char* end = nullptr;
-    d = std::strtod(s.c_str(), &end);
-    if (s.empty() || *end || !std::isfinite(d)) { err = o + ": not a number: '" + s + "'"; return false; }
-    return true;
+  if (v[0] != "improve") { err = "tetopt-mpi: unknown command '" + v[0] + "' (only 'improve')"; return kExitUsage; }
+  v.erase(v.begin());
+  const std::vector<tetopt_cli::ExtraOption> extra = {
+      {{"--per-rank"}, true, [&](const std::string& s, std::string&) { a.per_rank = s; return true; }},
+      {{"--rounds"}, true, [&](const std::string& s, std::string& e) {
+         char* end = nullptr;
+         const double d = std::strtod(s.c_str(), &end);
+         if (s.empty() || *end || !std::isfinite(d)) { e = "--rounds: not a number: '" + s + "'"; return false; }
+         if (d != std::floor(d) || d < 0 || d > 1e9) { e = "--rounds must be a non-negative integer"; return false; }
+         if (d < 1 || d > 1000) { e = "--rounds must be in 1..1000"; return false; }
+         a.rounds = static_cast<int>(d);
+         return true;
+       }},
   };
-  for (size_t i = 1; i < v.size(); ++i) {
-    const std::string& o = v[i];
-    auto val = [&](std::string& dst) {
-      if (i + 1 >= v.size()) { err = o + " needs a value"; return false; }
-      dst = v[++i];
-      return true;
-    };
-    std::string s;
-    double d = 0;
-    if (o == "-h" || o == "--help") return -1;
-    else if (o == "-o" || o == "--output") { if (!val(a.out)) return kExitUsage; }
-    else if (o == "--report") { if (!val(a.report)) return kExitUsage; }
-    else if (o == "--per-rank") { if (!val(a.per_rank)) return kExitUsage; }
-    else if (o == "-q" || o == "--quiet") a.quiet = true;
-    else if (o == "-v" || o == "--verbose") a.verbose = true;
-    else if (o == "--binary") a.wo.binary = true;
-    else if (o == "--no-check") a.opt.check_invariants = false;
-    else if (o == "--allow-insert") a.opt.allow_insert = true;
-    else if (o == "--mode") {
-      if (!val(s)) return kExitUsage;
-      if (s == "smooth") a.opt.mode = ImproveMode::Smooth;
-      else if (s == "topo") a.opt.mode = ImproveMode::Topo;
-      else if (s == "combined") a.opt.mode = ImproveMode::Combined;
-      else if (s == "best") a.opt.mode = ImproveMode::Best;
-      else { err = "--mode is smooth, topo, combined or best, not '" + s + "'"; return kExitUsage; }
-    } else if (o == "--optimizer") {
-      if (!val(s)) return kExitUsage;
-      if (s == "paper" || s == "maxmin") a.opt.maxmin_optimizer = s == "maxmin";
-      else { err = "--optimizer is paper or maxmin"; return kExitUsage; }
-    } else if (o == "--weight") {
-      if (!val(s) || !num(o, s, d)) return kExitUsage;
-      if (d < 0.5 || d >= 1) { err = "--weight must satisfy 0.5 <= C < 1"; return kExitUsage; }
-      a.opt.weight = d;
-    } else if (o == "--threshold") {
-      if (!val(s) || !num(o, s, d)) return kExitUsage;
-      if (d <= 0 || d > 1) { err = "--threshold must be in (0, 1]"; return kExitUsage; }
-      a.opt.threshold = d;
-    } else if (o == "--iterations" || o == "--seed" || o == "--threads" || o == "--rounds" || o == "--msh-version") {
-      if (!val(s) || !num(o, s, d)) return kExitUsage;
-      if (d != std::floor(d) || d < 0 || d > 1e9) { err = o + " must be a non-negative integer"; return kExitUsage; }
-      const int n = static_cast<int>(d);
-      if (o == "--iterations") a.opt.iterations = n;
-      else if (o == "--seed") a.opt.seed = static_cast<uint64_t>(n);
-      else if (o == "--threads") { if (n > 1024) { err = "--threads must be in 0..1024"; return kExitUsage; } a.opt.threads = n; }
-      else if (o == "--rounds") { if (n < 1 || n > 1000) { err = "--rounds must be in 1..1000"; return kExitUsage; } a.rounds = n; }
-      else { if (n != 22 && n != 41) { err = "--msh-version is 22 or 41"; return kExitUsage; } a.wo.msh_version = n; }
-    } else if (!o.empty() && o[0] == '-') { err = "unknown option '" + o + "'"; return kExitUsage; }
-    else if (a.in.empty()) a.in = o;
-    else { err = "unexpected argument '" + o + "'"; return kExitUsage; }
+  switch (tetopt_cli::parse_improve_args(v, {"tetopt-mpi", "tetopt-mpi"}, extra, a, err)) {
+    case tetopt_cli::ImproveArgsResult::Ok: return 0;
+    case tetopt_cli::ImproveArgsResult::Help: return -1;
+    default: return kExitUsage;
   }
-  if (a.in.empty()) { err = "no input mesh"; return kExitUsage; }
-  if (a.out.empty()) { err = "no output (-o OUT)"; return kExitUsage; }
-  if (format_from_path(a.out) == Format::Unknown) { err = a.out + ": unknown output extension"; return kExitUsage; }
-  return 0;
 }
 
 // Waits for a message from src without spinning a core (4 ranks share 2
@@ -709,7 +668,7 @@ int main(int argc, char** argv) {
   if (prc == -1) {
     if (rank == 0) std::fputs(kHelp, stdout);
   } else if (prc > 0) {
-    if (rank == 0) std::fprintf(stderr, "tetopt-mpi: %s\n\n%s", err.c_str(), kHelp);
+    if (rank == 0) std::fprintf(stderr, "%s\n\n%s", err.c_str(), kHelp);
     rc = prc;
   } else {
     rc = rank == 0 ? leader(a, size) : worker(a, rank);

@@ -1,0 +1,129 @@
+// Shared parser of the improve options (see improve_args.hpp).
+#include "improve_args.hpp"
+
+#include <cmath>
+#include <cstdlib>
+
+namespace tetopt_cli {
+
+using namespace tetopt;
+
+namespace {
+
+bool to_double(const std::string& v, double& out) {
+  char* end = nullptr;
+  out = std::strtod(v.c_str(), &end);
+  return !v.empty() && *end == '\0' && std::isfinite(out);
+}
+
+bool to_int(const std::string& v, long long& out) {
+  char* end = nullptr;
+  out = std::strtoll(v.c_str(), &end, 10);
+  return !v.empty() && *end == '\0';
+}
+
+}  // namespace
+
+ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,
+                                     const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err) {
+  using R = ImproveArgsResult;
+  const std::string cmd = names.command + ": ";
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& o = args[i];
+    std::string v;
+    auto value = [&] {
+      if (i + 1 >= args.size()) {
+        err = cmd + o + " needs a value";
+        return false;
+      }
+      v = args[++i];
+      return true;
+    };
+    auto number = [&](double& d) {
+      if (!value()) return false;
+      if (to_double(v, d)) return true;
+      err = names.tool + ": " + o + " expects a number, got '" + v + "'";
+      return false;
+    };
+    auto integer = [&](long long& n) {
+      if (!value()) return false;
+      if (to_int(v, n)) return true;
+      err = names.tool + ": " + o + " expects an integer, got '" + v + "'";
+      return false;
+    };
+    auto bad = [&](const std::string& msg) {
+      err = cmd + msg;
+      return R::Error;
+    };
+    double d = 0;
+    long long n = 0;
+    if (o == "-h" || o == "--help") return R::Help;
+    else if (o == "-o" || o == "--output") { if (!value()) return R::Error; a.out = v; }
+    else if (o == "--report") { if (!value()) return R::Error; a.report = v; }
+    else if (o == "-q" || o == "--quiet") a.quiet = true;
+    else if (o == "-v" || o == "--verbose") a.verbose = true;
+    else if (o == "--binary") a.wo.binary = true;
+    else if (o == "--no-check") a.opt.check_invariants = false;
+    else if (o == "--allow-insert") a.opt.allow_insert = true;
+    else if (o == "--mode") {
+      if (!value()) return R::Error;
+      if (v == "smooth") a.opt.mode = ImproveMode::Smooth;
+      else if (v == "topo") a.opt.mode = ImproveMode::Topo;
+      else if (v == "combined") a.opt.mode = ImproveMode::Combined;
+      else if (v == "best") a.opt.mode = ImproveMode::Best;
+      else return bad("--mode is smooth, topo, combined or best, not '" + v + "'");
+    } else if (o == "--optimizer") {
+      if (!value()) return R::Error;
+      if (v == "paper") a.opt.maxmin_optimizer = false;
+      else if (v == "maxmin") a.opt.maxmin_optimizer = true;
+      else return bad("--optimizer is paper or maxmin, not '" + v + "'");
+    } else if (o == "--weight") {
+      if (!number(d)) return R::Error;
+      if (d < 0.5 || d >= 1) return bad("--weight must satisfy 0.5 <= C < 1");
+      a.opt.weight = d;
+    } else if (o == "--threshold") {
+      if (!number(d)) return R::Error;
+      if (d <= 0 || d > 1) return bad("--threshold must be in (0, 1]");
+      a.opt.threshold = d;
+    } else if (o == "--iterations") {
+      if (!integer(n)) return R::Error;
+      if (n < 0 || n > 1000000) return bad("--iterations must be in 0..1000000");
+      a.opt.iterations = static_cast<int>(n);
+    } else if (o == "--seed") {
+      if (!integer(n)) return R::Error;
+      a.opt.seed = static_cast<uint64_t>(n);
+    } else if (o == "--threads") {
+      if (!integer(n)) return R::Error;
+      if (n < 0 || n > 1024) return bad("--threads must be in 0..1024");
+      a.opt.threads = static_cast<int>(n);
+    } else if (o == "--msh-version") {
+      if (!integer(n)) return R::Error;
+      if (n != 22 && n != 41) return bad("--msh-version is 22 or 41");
+      a.wo.msh_version = static_cast<int>(n);
+    } else if (!o.empty() && o[0] == '-') {
+      const ExtraOption* x = nullptr;
+      for (const ExtraOption& e : extra)
+        for (const std::string& name : e.names)
+          if (name == o) x = &e;
+      if (!x) {
+        err = cmd + "unknown option '" + o + "'";
+        return R::ErrorWithHelp;
+      }
+      if (x->takes_value && !value()) return R::Error;
+      std::string msg;
+      if (!x->apply(v, msg)) return bad(msg);
+    } else if (a.in.empty()) a.in = o;
+    else return bad("unexpected argument '" + o + "'");
+  }
+  if (a.in.empty() || a.out.empty()) {
+    err = cmd + (a.in.empty() ? "no input mesh" : "no output (-o OUT)");
+    return R::ErrorWithHelp;
+  }
+  if (format_from_path(a.out) == Format::Unknown) {
+    err = cmd + a.out + ": unknown output extension";
+    return R::Error;
+  }
+  return R::Ok;
+}
+
+}  // namespace tetopt_cli

@@ -1,0 +1,55 @@
+// The options of `tetopt improve`, parsed once for both executables that take
+// them: `tetopt improve` (apps/cli/cmd_improve.cpp) and `tetopt-mpi improve`
+// (apps/mpi/main.cpp).  An option added here is accepted by both, with the same
+// spelling, validation and error message.  Options that only one executable
+// has (tetopt's --field and --html, tetopt-mpi's --rounds and --per-rank) are
+// passed in as ExtraOption by that executable.
+//
+// Nothing here prints: errors come back as one line (prefix included, no
+// newline), so that tetopt-mpi can print them on rank 0 only.  This file has
+// no dependency on the rest of apps/cli (apps/mpi/CMakeLists.txt compiles it
+// into tetopt-mpi).
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "tetopt/improve.hpp"
+#include "tetopt/io.hpp"
+
+namespace tetopt_cli {
+
+/// What the shared improve options set.
+struct ImproveArgs {
+  std::string in, out, report;  // positional input, -o, --report
+  tetopt::ImproveOptions opt;
+  tetopt::WriteOptions wo;
+  bool quiet = false, verbose = false;
+};
+
+/// An option of one executable only.  apply gets the value ("" for a flag)
+/// and returns false with err set (without prefix) when it is invalid.
+struct ExtraOption {
+  std::vector<std::string> names;  // e.g. {"--rounds"}
+  bool takes_value = true;
+  std::function<bool(const std::string& value, std::string& err)> apply;
+};
+
+/// How error lines begin: command ("tetopt improve", "tetopt-mpi") for usage
+/// errors, tool ("tetopt", "tetopt-mpi") for a value that is not a number.
+struct ImproveArgsNames {
+  std::string command, tool;
+};
+
+enum class ImproveArgsResult {
+  Ok,             // all options valid, input and output given, output extension known
+  Help,           // -h or --help seen: print the help, exit 0
+  Error,          // err holds one line; exit 1
+  ErrorWithHelp,  // unknown option, no input, no output: err, a blank line, then the help
+};
+
+/// Parses args (the words after "improve").  Stops at the first error.
+ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,
+                                     const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err);
+
+}  // namespace tetopt_cli
