@@ -169,18 +169,22 @@ class Driver {
       // (438k tets): 0.3644 in 2.7 s; the former rule (first two rounds,
       // every tet below gamma) gave 0.3278 in 2.1 s, and every tet below a
       // rising gamma in every round 0.4108 in 81 s (2,550 vertices).
-      if (o_.allow_insert && (insert_live || gamma > insert_tried_at)) {
+      if ((o_.allow_insert || o_.allow_remove) && (insert_live || gamma > insert_tried_at)) {
         insert_live = true;
         insert_tried_at = gamma;
         const auto t = Clock::now();
         InsertOptions io;
         io.quality_threshold = std::min(gamma, worst() + kInsertBand);
+        io.insert = o_.allow_insert;
+        io.remove = o_.allow_remove;
         const InsertStats is = insert_pass(m_, io, sub_log_);
         alpha_.clear();
         r_.insertions += is.inserted;
+        r_.removals += is.removed;
+        r_.removed_vertices.insert(r_.removed_vertices.end(), is.removed_vertices.begin(), is.removed_vertices.end());
         r_.seconds_topo += since(t);
         if (!is.status) return is.status;
-        if (is.inserted == 0) insert_live = false;
+        if (is.inserted + is.removed == 0) insert_live = false;
       }
       smooth(smooth_opts(gamma, 3, false, o_.seed + static_cast<uint64_t>(round)));
       smooth(smooth_opts(gamma, 3, true, o_.seed + static_cast<uint64_t>(round)));
@@ -297,6 +301,10 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
     rep.invariant_message = s.message;
     if (!s) return s;
   }
+  // Removed vertices are referenced by no tet; drop them (after the proof,
+  // which compares constrained vertices by id).
+  if (!opt.keep_vertex_ids && !rep.removed_vertices.empty())
+    if (Status s = compact_vertices(m, rep.removed_vertices); !s) return s;
   rep.after = compute_stats(m, opt.threads);
   rep.seconds_total = since(t0);
   return Status::success();
@@ -316,7 +324,8 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   j << "  \"options\": {\"mode\": \"" << mode_name(o.mode) << "\", \"optimizer\": \""
     << (o.maxmin_optimizer ? "maxmin" : "paper") << "\", \"weight\": " << num(o.weight)
     << ", \"threshold\": " << num(o.threshold) << ", \"iterations\": " << o.iterations << ", \"seed\": " << o.seed
-    << ", \"threads\": " << o.threads << ", \"allow_insert\": " << (o.allow_insert ? "true" : "false") << "},\n";
+    << ", \"threads\": " << o.threads << ", \"allow_insert\": " << (o.allow_insert ? "true" : "false")
+    << ", \"allow_remove\": " << (o.allow_remove ? "true" : "false") << "},\n";
   j << "  \"before\": " << stats_to_json(r.before, 4) << ",\n";
   j << "  \"after\": " << stats_to_json(r.after, 4) << ",\n";
   j << "  \"operations\": {\"smoothing_moves\": " << r.smooth_moves << ", \"smoothing_tried\": " << r.smooth_tried
@@ -324,7 +333,8 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
     << ", \"multi_face_removals\": " << r.multi_face_removals << ", \"flip22\": " << r.flip22
     << ", \"flip44\": " << r.flip44 << ", \"all_boundary_removed\": " << r.all_boundary_removed
     << ", \"untangled\": " << r.untangled << ", \"still_inverted\": " << r.still_inverted
-    << ", \"insertions\": " << r.insertions << ", \"dihedral_vertex_moves\": " << r.vertex_moves
+    << ", \"insertions\": " << r.insertions << ", \"vertex_removals\": " << r.removals
+    << ", \"dihedral_vertex_moves\": " << r.vertex_moves
     << ", \"rounds\": " << r.rounds << "},\n";
   j << "  \"seconds\": {\"total\": " << num(r.seconds_total) << ", \"smoothing\": " << num(r.seconds_smooth)
     << ", \"topology\": " << num(r.seconds_topo) << ", \"invariant_check\": " << num(r.seconds_check) << "},\n";

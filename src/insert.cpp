@@ -42,19 +42,26 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     for (int32_t t : work) {
       if (!ed.alive(t) || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
       ++st.tried;
-      done += ed.insert_vertex(t) == TopoResult::Applied;
+      if (o.insert && ed.insert_vertex(t) == TopoResult::Applied) {
+        ++done;
+      } else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) {
+        ++done;
+        ++st.removed;
+      }
     }
     st.inserted += done;
     if (log)
       log(LogLevel::Info, "insert pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
-                              " tets visited, " + std::to_string(done) + " vertices inserted");
+                              " tets visited, " + std::to_string(done) + " vertices inserted or removed");
     if (done == 0) break;
   }
   st.alpha_worst_after = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t)
     if (ed.alive(t)) st.alpha_worst_after = std::min(st.alpha_worst_after, ed.cached_alpha(t));
+  st.removed_vertices = ed.removed();
+  st.inserted -= st.removed;
   ed.finish();
-  st.vertices_after = m.nv();
+  st.vertices_after = m.nv() - st.removed;
   st.tets_after = m.nt();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;

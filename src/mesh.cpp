@@ -118,6 +118,56 @@ OrientationReport normalize_orientation(TetMesh& m) {
   return r;
 }
 
+Status compact_vertices(TetMesh& m, const std::vector<int32_t>& drop, std::vector<int32_t>* map) {
+  const int32_t nv = m.nv();
+  std::vector<int32_t> to(static_cast<size_t>(nv), 0);
+  for (int32_t v : drop) {
+    if (v < 0 || v >= nv) return Status::error(ErrorCode::Invariant, "compact_vertices: vertex id out of range");
+    to[v] = -1;
+  }
+  auto referenced = [&](const std::vector<int32_t>& ids) {
+    for (int32_t v : ids)
+      if (v >= 0 && v < nv && to[v] < 0) return true;
+    return false;
+  };
+  if (referenced(m.tets) || referenced(m.tris) || referenced(m.edges) || referenced(m.required_vertices) ||
+      referenced(m.corners))
+    return Status::error(ErrorCode::Invariant, "compact_vertices: a dropped vertex is still referenced");
+  int32_t n = 0;
+  for (int32_t v = 0; v < nv; ++v) to[v] = to[v] < 0 ? -1 : n++;
+  if (n == nv) {
+    if (map) *map = std::move(to);
+    return Status::success();
+  }
+  const bool has_vref = m.vert_ref.size() == static_cast<size_t>(nv);
+  const bool has_flags = m.vert_constrained.size() == static_cast<size_t>(nv);
+  for (int32_t v = 0; v < nv; ++v) {
+    const int32_t w = to[v];
+    if (w < 0 || w == v) continue;
+    std::copy(m.point(v), m.point(v) + 3, m.point(w));
+    if (has_vref) m.vert_ref[w] = m.vert_ref[v];
+    if (has_flags) m.vert_constrained[w] = m.vert_constrained[v];
+  }
+  m.xyz.resize(3 * static_cast<size_t>(n));
+  if (has_vref) m.vert_ref.resize(n);
+  if (has_flags) m.vert_constrained.resize(n);
+  for (auto& pf : m.point_fields) {
+    const size_t c = static_cast<size_t>(pf.components);
+    if (pf.values.size() != c * static_cast<size_t>(nv)) continue;
+    for (int32_t v = 0; v < nv; ++v)
+      if (to[v] >= 0 && to[v] != v)
+        std::copy(&pf.values[c * v], &pf.values[c * v] + c, &pf.values[c * static_cast<size_t>(to[v])]);
+    pf.values.resize(c * static_cast<size_t>(n));
+  }
+  for (auto* ids : {&m.tets, &m.tris, &m.edges, &m.required_vertices, &m.corners})
+    for (int32_t& v : *ids)
+      if (v >= 0 && v < nv) v = to[v];
+  if (m.vt_offsets.size() == static_cast<size_t>(nv) + 1) build_vertex_tets(m);
+  m.topology_epoch++;
+  if (map) *map = std::move(to);
+  return Status::success();
+}
+
 void build_vertex_tets(TetMesh& m) {
   const int32_t nv = m.nv(), nt = m.nt();
   m.vt_offsets.assign(static_cast<size_t>(nv) + 1, 0);

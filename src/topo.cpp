@@ -34,9 +34,11 @@ namespace tetopt {
 
 namespace {
 
-constexpr int kMaxOld = 2 * kMaxShell;      // old tets of a cavity
-constexpr int kMaxNew = 2 * kMaxShell;      // new tets of a cavity
+constexpr int kMaxOld = 96;                 // old tets of a cavity (a vertex star for remove_vertex)
+constexpr int kMaxNew = kMaxOld;            // new tets of a cavity
 constexpr int kMaxOuter = 4 * kMaxOld;      // outer faces of a cavity
+constexpr int kInsertMax = 2 * kMaxShell;   // insert_vertex: cavity tets and outer faces
+static_assert(kMaxOld >= 2 * kMaxShell, "an edge shell or sandwich must fit a cavity");
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 uint64_t edge_key(int32_t a, int32_t b) {
@@ -87,7 +89,7 @@ const char* to_string(TopoResult r) {
 
 // A planned operation: the cavity, the new tets and how their faces connect.
 struct TopoEditor::Candidate {
-  enum Kind { Edge, Multi, Insert } kind = Edge;
+  enum Kind { Edge, Multi, Insert, Remove } kind = Edge;
   int size = 0;  // shell size n (Edge) or number of removed faces m (Multi)
   int n_old = 0;
   int32_t old_tets[kMaxOld];
@@ -686,6 +688,8 @@ void TopoEditor::commit(const Candidate& c) {
 void TopoEditor::count(const Candidate& c) {
   if (c.kind == Candidate::Insert) {
     ++stats_.insertions;
+  } else if (c.kind == Candidate::Remove) {
+    ++stats_.removals;
   } else if (c.kind == Candidate::Edge) {
     if (c.size == 3) ++stats_.flip32;
     else if (c.size == 4) ++stats_.flip44;
@@ -803,7 +807,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
         for (int j = 0; j < nold && nb >= 0 && !inside; ++j) inside = old[j] == nb / 4;
         if (inside && ((m_.face_mask[o] >> f) & 1u)) return false;
         if (inside) continue;
-        if (nf >= kMaxNew) return false;
+        if (nf >= kInsertMax) return false;
         face_nb[nf] = joinable(o, f);
         for (int k = 0; k < 3; ++k) {
           face[nf][k] = tv[kFaceVertex[f][k]];
@@ -887,7 +891,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   nold = 0;
   old[nold++] = t;
   for (int i = 0; i < nn; ++i) old[nold++] = nbs[i];
-  for (int step = 0, stale = 0; step < 12 && nold < kMaxOld && stale < 3; ++step) {
+  for (int step = 0, stale = 0; step < 12 && nold < kInsertMax && stale < 3; ++step) {
     const double before = best_f;
     lead = 0;
     if (!evaluate()) break;
@@ -945,6 +949,112 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     return r;
   }
   commit(c);
+  return TopoResult::Applied;
+}
+
+TopoResult TopoEditor::remove_vertex(int32_t t) {
+  if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
+  const bool has_entity = !m_.tet_entity.empty();
+  TopoResult why = TopoResult::NotApplicable;
+  bool have = false;
+  int32_t best_v = -1;
+  double best_min = -kInf;
+  for (int k = 0; k < 4; ++k) {
+    const int32_t v = m_.tet(t)[k];
+    if (m_.vert_constrained[v]) {
+      if (why == TopoResult::NotApplicable) why = TopoResult::BoundaryLocked;
+      continue;
+    }
+    // The star of v, across the faces that contain v.
+    int32_t star[kMaxOld];
+    int ns = 0;
+    star[ns++] = t;
+    bool usable = true;
+    for (int i = 0; i < ns && usable; ++i) {
+      const int32_t o = star[i];
+      const int lv = local_of(m_.tet(o), v);
+      for (int f = 0; f < 4 && usable; ++f) {
+        if (f == lv) continue;
+        const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+        if (nb < 0 || ((m_.face_mask[o] >> f) & 1u)) {  // a free vertex is on no such face
+          usable = false;
+          why = TopoResult::BoundaryLocked;
+          break;
+        }
+        const int32_t n = nb / 4;
+        bool seen = false;
+        for (int j = 0; j < ns && !seen; ++j) seen = star[j] == n;
+        if (seen) continue;
+        if (ns == kMaxOld) {
+          usable = false;
+          why = TopoResult::ShellTooLarge;
+        } else {
+          star[ns++] = n;
+        }
+      }
+    }
+    if (!usable) continue;
+    Candidate& c = *cand_;
+    c.kind = Candidate::Remove;
+    c.size = 1;
+    c.ref = m_.tet_ref[t];
+    c.entity = has_entity ? m_.tet_entity[t] : 0;
+    c.n_old = ns;
+    c.old_min = kInf;
+    c.k4_old = 0;
+    for (int i = 0; i < ns; ++i) {
+      const int32_t o = star[i];
+      if (m_.tet_ref[o] != c.ref || (has_entity && m_.tet_entity[o] != c.entity)) usable = false;
+      c.old_tets[i] = o;
+      c.old_min = std::min(c.old_min, cached_alpha(o));
+      c.k4_old += m_.tet_kind[o] == 4;
+    }
+    if (!usable) {
+      why = TopoResult::RegionMismatch;
+      continue;
+    }
+    if (!(c.old_min > 0)) continue;  // a tangled star: the cone argument needs positive tets
+    // Candidate targets w: the other vertices of the star, in first-seen order.
+    int32_t nbr[4 * kMaxOld];
+    int nn = 0;
+    for (int i = 0; i < ns; ++i)
+      for (int q = 0; q < 4; ++q) {
+        const int32_t w = m_.tet(star[i])[q];
+        bool dup = w == v;
+        for (int j = 0; j < nn && !dup; ++j) dup = nbr[j] == w;
+        if (!dup) nbr[nn++] = w;
+      }
+    for (int j = 0; j < nn; ++j) {
+      const int32_t w = nbr[j];
+      const double floor = std::max(best_min, c.old_min + o_.margin);
+      // Worst alpha of the cone from w, stopping once it cannot win.
+      double worst = kInf;
+      c.n_new = 0;
+      for (int i = 0; i < ns && worst > floor; ++i) {
+        const int32_t* tv = m_.tet(star[i]);
+        if (tv[0] == w || tv[1] == w || tv[2] == w || tv[3] == w) continue;
+        int32_t* q = c.quad[c.n_new++];
+        for (int r = 0; r < 4; ++r) q[r] = tv[r] == v ? w : tv[r];
+        worst = std::min(worst, quality(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])));
+      }
+      if (!(worst > floor)) {
+        if (why == TopoResult::NotApplicable) why = worst > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
+        continue;
+      }
+      const TopoResult r = finish_plan(true, c);
+      if (r != TopoResult::Applied) {
+        why = r;
+        continue;
+      }
+      best_min = c.new_min;
+      best_v = v;
+      *best_ = c;
+      have = true;
+    }
+  }
+  if (!have) return why;
+  commit(*best_);
+  removed_.push_back(best_v);
   return TopoResult::Applied;
 }
 

@@ -65,6 +65,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "--binary") a.wo.binary = true;
     else if (o == "--no-check") a.opt.check_invariants = false;
     else if (o == "--allow-insert") a.opt.allow_insert = true;
+    else if (o == "--allow-remove") a.opt.allow_remove = true;
     else if (o == "--mode") {
       if (!value()) return R::Error;
       if (v == "smooth") a.opt.mode = ImproveMode::Smooth;

@@ -68,6 +68,7 @@ const char* kHelp =
     "  --seed S             visiting order and METIS seed (default 0)\n"
     "  --threads T          worker threads per rank (default 1)\n"
     "  --allow-insert       (mode best) may insert free vertices\n"
+    "  --allow-remove       (mode best) may remove free vertices (dropped after the merge)\n"
     "  --report FILE.json   per-round phase times, bytes, quality; before/after stats\n"
     "  --msh-version V      22 or 41    --binary  binary .msh/.vtk\n"
     "  --no-check           skip the per-part proof inside improve (the final global\n"
@@ -170,6 +171,9 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
     // within 0.05 of the part's worst alpha, so it stays cheap at the raised
     // thresholds of later rounds.
     opt.threshold = head[0];
+    // Removed vertices must keep their ids until rank 0 merges the parts;
+    // rank 0 drops them once, after the final proof.
+    opt.keep_vertex_ids = true;
     st = decode_part(framed.substr(sizeof head), part);
   }
   const bool cut = head[1] != 0;
@@ -380,6 +384,8 @@ int leader(const Args& a, int size) {
   }
   const double t_read = now() - t_start;
   const InvariantSnapshot snap = capture_invariants(g);
+  std::vector<uint8_t> used_in(static_cast<size_t>(g.nv()), 0);  // vertices a tet of IN uses
+  for (int32_t v : g.tets) used_in[v] = 1;
   const QualityStats before = compute_stats(g);
   say("%s: %d vertices, %d tets, %d ranks; read in %.3f s\n", a.in.c_str(), g.nv(), g.nt(), size, t_read);
 
@@ -571,6 +577,18 @@ int leader(const Args& a, int size) {
     const double t = now();
     s = check_invariants(g, snap);
     t_check = now() - t;
+    if (!s) { failure = s.message; exit_code = kExitInvariant; }
+  }
+  if (exit_code == kExitOk && a.opt.allow_remove) {
+    // A vertex no tet uses now was removed by a part, unless it was already
+    // unused in IN (kept as it was): IN's vertices a tet used, and every
+    // vertex inserted since (ids past IN's).
+    std::vector<uint8_t> used(static_cast<size_t>(g.nv()), 0);
+    for (int32_t v : g.tets) used[v] = 1;
+    std::vector<int32_t> drop;
+    for (int32_t v = 0; v < g.nv(); ++v)
+      if (!used[v] && (v >= static_cast<int32_t>(used_in.size()) || used_in[v])) drop.push_back(v);
+    s = compact_vertices(g, drop);
     if (!s) { failure = s.message; exit_code = kExitInvariant; }
   }
   if (exit_code == kExitOk) {

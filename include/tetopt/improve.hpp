@@ -40,6 +40,16 @@ struct ImproveOptions {
   /// (appended after the existing ones, which keep their ids); off by default
   /// because some users need the vertex set unchanged.
   bool allow_insert = false;
+  /// Best mode: allow removing free vertices (edge contraction,
+  /// TopoEditor::remove_vertex) where that raises the worst alpha of their
+  /// star; off by default for the same reason.  The removed vertices are
+  /// dropped at the end (compact_vertices: the other vertices keep their
+  /// order, ids shift down) unless keep_vertex_ids is set.
+  bool allow_remove = false;
+  /// With allow_remove: leave removed vertices in the array, referenced by no
+  /// tet (ImproveReport::removed_vertices), so every id stays valid (tetopt-mpi
+  /// merges parts by id and drops them once at the end).
+  bool keep_vertex_ids = false;
 };
 
 /// What a run did.
@@ -49,6 +59,9 @@ struct ImproveReport {
   int64_t flip23 = 0, flip32 = 0, edge_removals = 0, multi_face_removals = 0, flip22 = 0, flip44 = 0;
   int64_t all_boundary_removed = 0;
   int64_t insertions = 0;     ///< vertices inserted (allow_insert)
+  int64_t removals = 0;       ///< vertices removed (allow_remove)
+  /// Ids (in the numbering before the final compaction) of the removed vertices.
+  std::vector<int32_t> removed_vertices;
   int64_t untangled = 0;      ///< input tets that were inverted or flat and are now positive
   int64_t still_inverted = 0; ///< input tets inverted or flat that untangling could not fix
   int64_t vertex_moves = 0;   ///< relocations by the final dihedral pass

@@ -24,6 +24,7 @@
 // TopoEditor::finish().  Impeller (438k tets) with --allow-insert: 73 s.
 #pragma once
 #include <cstdint>
+#include <vector>
 
 #include "tetopt/mesh.hpp"
 #include "tetopt/status.hpp"
@@ -39,10 +40,17 @@ struct InsertOptions {
   /// fixes tets with two or more free vertices far more cheaply, and visiting
   /// every poor tet of a 400k-tet mesh costs minutes (impeller: 274 s with 0).
   int min_kind = 3;
+  /// Also remove vertices (TopoEditor::remove_vertex, edge contraction of a
+  /// free vertex of the tet) where insertion does not apply; removed
+  /// vertices stay in the array, unreferenced, listed in InsertStats.
+  bool remove = false;
+  bool insert = true;  ///< false: removal only
 };
 
 struct InsertStats {
   int64_t inserted = 0, tried = 0;
+  int64_t removed = 0;                    ///< vertices removed (InsertOptions::remove)
+  std::vector<int32_t> removed_vertices;  ///< their ids (unreferenced now; compact_vertices drops them)
   double alpha_worst_before = 0, alpha_worst_after = 0;
   int64_t vertices_before = 0, vertices_after = 0;
   int64_t tets_before = 0, tets_after = 0;

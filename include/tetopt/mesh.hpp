@@ -130,6 +130,15 @@ Status build_topology(TetMesh& m, int threads = 1);
 /// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date).
 void build_vertex_tets(TetMesh& m);
 
+/// Deletes the vertices listed in `drop` (ids, any order, duplicates
+/// allowed) and renumbers the others in their order: xyz, vert_ref,
+/// point_fields, vert_constrained and every vertex id in tets, tris, edges,
+/// required_vertices and corners.  The dropped vertices must be referenced by
+/// none of these (vertex removal leaves them so); Invariant error otherwise,
+/// with nothing changed.  Rebuilds the vertex->tet CSR when it was built.
+/// Returns the map old id -> new id (-1 for a dropped vertex) in `map`.
+Status compact_vertices(TetMesh& m, const std::vector<int32_t>& drop, std::vector<int32_t>* map = nullptr);
+
 /// Rebuilds face adjacency; same failure cases as build_topology.
 Status build_adjacency(TetMesh& m, int threads = 1);
 

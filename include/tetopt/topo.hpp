@@ -137,6 +137,7 @@ struct TopoStats {
   int64_t multi_face_removals = 0;  ///< multi-face removals of two or more faces
   int64_t flip22 = 0;               ///< always 0 (see flip_22)
   int64_t insertions = 0;           ///< vertices inserted (insert_vertex)
+  int64_t removals = 0;             ///< free vertices removed (remove_vertex)
   int64_t all_boundary_removed = 0; ///< operations that removed a kind-4 tet they were aimed at
   int64_t kind4_before = 0, kind4_after = 0;  ///< kind-4 tets before / after the call
   double alpha_worst_before = 0, alpha_worst_after = 0;  ///< over all tets
@@ -146,7 +147,7 @@ struct TopoStats {
   double seconds = 0;
   Status status;  ///< not ok when the topology could not be built
   int64_t applied() const {
-    return flip23 + flip32 + flip44 + edge_removals + multi_face_removals + flip22 + insertions;
+    return flip23 + flip32 + flip44 + edge_removals + multi_face_removals + flip22 + insertions + removals;
   }
 };
 
@@ -194,6 +195,19 @@ class TopoEditor {
   /// than the margin.  Constrained faces stay (they are outer faces).
   /// Alpha measure only (NotApplicable otherwise).
   TopoResult insert_vertex(int32_t t);
+  /// Vertex removal by edge contraction: for each free vertex v of t and
+  /// each vertex w of v's star, the star of v (at most 32 tets, one region
+  /// and entity, all positive) is replaced by its tets without w, with v
+  /// replaced by w.  Valid when every new tet is exactly positive (w then
+  /// sees every face of the star's boundary that it is not on, so the cone
+  /// from w fills the star) and the faces match the star's boundary; taken
+  /// when the worst alpha of the star rises by more than the margin (best
+  /// (v, w) wins).  Constrained faces are never removed (v is on none).  v
+  /// stays in the vertex array, referenced by no tet, and is appended to
+  /// removed(); see compact_vertices (mesh.hpp).  Alpha measure only.
+  TopoResult remove_vertex(int32_t t);
+  /// Vertices removed by remove_vertex, in order.
+  const std::vector<int32_t>& removed() const { return removed_; }
   /// Algorithm 4 of Liu et al. on one tet: tries edge removal on each of
   /// t's edges, face swaps and multi-face removals across its unconstrained
   /// faces, and commits the acceptable option with the best worst alpha
@@ -279,6 +293,7 @@ class TopoEditor {
   std::vector<double> lb_;
   std::vector<double>* shared_ = nullptr;  // caller's alpha cache, given back by finish()
   std::vector<int32_t> free_;
+  std::vector<int32_t> removed_;  // vertices removed by remove_vertex
   std::vector<uint32_t> vstamp_;  // per vertex: epoch of the last commit touching it
   uint32_t stamp_ = 1;
   std::vector<uint64_t> listed_edges_;

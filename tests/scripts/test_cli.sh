@@ -70,6 +70,28 @@ check "tangled input: every tet positive afterwards" '/usr/bin/python3 -c "
 import json; r=json.load(open(\"$W/tu.json\"))
 assert r[\"after\"][\"inverted_or_flat\"] == 0 and r[\"operations\"][\"untangled\"] > 0"'
 
+# --allow-remove: vertices removed (none left unreferenced), the proof holds,
+# the worst alpha is at least that of the run without it on this mesh.
+"$T" generate "$W/rm.mesh" --cells 8 8 8 --jitter 0.45 --seed 3 > /dev/null
+"$T" improve "$W/rm.mesh" -o "$W/rm_a.mesh" --allow-insert --report "$W/rm_a.json" -q
+"$T" improve "$W/rm.mesh" -o "$W/rm_b.mesh" --allow-insert --allow-remove --report "$W/rm_b.json" -q; rc=$?
+check "--allow-remove exits 0" '[ $rc -eq 0 ]'
+check "--allow-remove: vertices removed and dropped, proof ok, worst alpha not lower" '/usr/bin/python3 -c "
+import json
+a = json.load(open(\"$W/rm_a.json\")); b = json.load(open(\"$W/rm_b.json\"))
+assert b[\"options\"][\"allow_remove\"] is True and a[\"options\"][\"allow_remove\"] is False
+assert b[\"operations\"][\"vertex_removals\"] > 0, b[\"operations\"]
+assert b[\"boundary_unchanged\"][\"ok\"] is True
+assert b[\"after\"][\"alpha_worst\"] >= a[\"after\"][\"alpha_worst\"] - 1e-12
+"'
+check "--allow-remove: no unreferenced vertex in the output" '/usr/bin/python3 -c "
+tok = open(\"$W/rm_b.mesh\").read().split()
+i = tok.index(\"Vertices\"); nv = int(tok[i + 1])
+j = tok.index(\"Tetrahedra\"); nt = int(tok[j + 1])
+used = set(int(x) for k in range(nt) for x in tok[j + 2 + 5 * k: j + 6 + 5 * k])
+assert used == set(range(1, nv + 1)), (nv, len(used))
+"'
+
 MC="$SRC/../shared/tools/meshcheck.py"
 if [ -f "$MC" ] && /usr/bin/python3 -c "import meshio" 2>/dev/null; then
   for mode in smooth topo combined best; do
