@@ -108,6 +108,32 @@ struct TopoEditor::Candidate {
   uint8_t outer_mask[kMaxOuter];  // 1 when constrained
 };
 
+namespace {
+// Copies the parts of a candidate that commit() and count() read (the arrays
+// only up to their used lengths: a candidate is about 14 KB, a 3-2 flip uses
+// a few hundred bytes of it).
+void copy_used(const TopoEditor::Candidate& s, TopoEditor::Candidate& d) {
+  d.kind = s.kind;
+  d.size = s.size;
+  d.n_old = s.n_old;
+  d.n_new = s.n_new;
+  d.n_outer = s.n_outer;
+  d.old_min = s.old_min;
+  d.new_min = s.new_min;
+  d.k4_old = s.k4_old;
+  d.k4_new = s.k4_new;
+  d.ref = s.ref;
+  d.entity = s.entity;
+  std::copy(s.old_tets, s.old_tets + s.n_old, d.old_tets);
+  std::copy(&s.quad[0][0], &s.quad[0][0] + 4 * s.n_new, &d.quad[0][0]);
+  std::copy(s.new_alpha, s.new_alpha + s.n_new, d.new_alpha);
+  std::copy(s.link, s.link + 4 * s.n_new, d.link);
+  std::copy(&s.outer_v[0][0], &s.outer_v[0][0] + 3 * s.n_outer, &d.outer_v[0][0]);
+  std::copy(s.outer_nb, s.outer_nb + s.n_outer, d.outer_nb);
+  std::copy(s.outer_mask, s.outer_mask + s.n_outer, d.outer_mask);
+}
+}  // namespace
+
 TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : TopoEditor(m, o, nullptr) {}
 
 TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o, std::vector<double>* alpha_cache) : m_(m), o_(o) {
@@ -1048,7 +1074,7 @@ TopoResult TopoEditor::remove_vertex(int32_t t) {
       }
       best_min = c.new_min;
       best_v = v;
-      *best_ = c;
+      copy_used(c, *best_);
       have = true;
     }
   }
@@ -1155,7 +1181,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
             Candidate* c = &sc.a;
             Candidate* b = &sc.b;
             if (plan_best(t, strict, c, b, &p.reads) == TopoResult::Applied) {
-              chosen[i] = *b;
+              copy_used(*b, chosen[i]);
               p.state = 2;
             } else {
               p.state = 1;
