@@ -254,7 +254,7 @@ bool decode_result(const std::string& msg, PartResult& out) {
 }
 
 Status merge_parts(TetMesh& g, const std::vector<int32_t>& part, const std::vector<PartPlan>& plans,
-                   std::vector<PartResult>& results) {
+                   std::vector<PartResult>& results, int threads) {
   const bool has_entity = !g.tet_entity.empty();
   const bool has_vref = g.vert_ref.size() == static_cast<size_t>(g.nv());
   const int32_t kept_id = static_cast<int32_t>(plans.size());
@@ -311,7 +311,7 @@ Status merge_parts(TetMesh& g, const std::vector<int32_t>& part, const std::vect
   g.tets = std::move(tets);
   g.tet_ref = std::move(ref);
   if (has_entity) g.tet_entity = std::move(ent);
-  return build_topology(g);
+  return build_topology(g, threads);
 }
 
 std::vector<uint8_t> dilate(const TetMesh& g, std::vector<uint8_t> seed) {

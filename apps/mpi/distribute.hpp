@@ -123,9 +123,10 @@ bool decode_result(const std::string& msg, PartResult& r);
 /// Replaces g's tets by the kept ones (part id == plans.size(), unchanged,
 /// first) and the parts' (in part order), and moves/appends vertices; checks
 /// that every vertex listed required in a part kept its bits.  Rebuilds g's
-/// topology.
+/// topology with `threads` threads (0 = all cores; the result is the same
+/// for every count).
 tetopt::Status merge_parts(tetopt::TetMesh& g, const std::vector<int32_t>& part, const std::vector<PartPlan>& plans,
-                           std::vector<PartResult>& results);
+                           std::vector<PartResult>& results, int threads = 1);
 
 /// Marks, in a vector of g.nv() flags (seed is padded with zeros to g.nv()), the vertices of every tet that has a
 /// vertex flagged in `seed` (one layer of tets around it).

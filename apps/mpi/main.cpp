@@ -44,6 +44,11 @@ using namespace tetopt_mpi;
 
 namespace {
 
+// Rank 0 alone reads, merges, measures and writes while the other ranks wait
+// (asleep between MPI_Iprobe calls), so those phases use every core of its
+// node; their results do not depend on the thread count.
+constexpr int kRank0Threads = 0;
+
 constexpr int kExitOk = 0, kExitUsage = 1, kExitInput = 2, kExitInvariant = 3, kExitOutput = 4;
 constexpr int kTagPart = 1, kTagStop = 2, kTagResult = 3, kTagWrite = 4;
 
@@ -374,7 +379,7 @@ int leader(const Args& a, int size) {
   TetMesh g;
   OrientationReport orient;
   Status s = read_mesh(a.in, g, &orient);
-  if (s) s = build_topology(g);
+  if (s) s = build_topology(g, kRank0Threads);
   if (!s) {
     std::fprintf(stderr, "tetopt-mpi: %s: %s\n", a.in.c_str(), s.message.c_str());
     stop_workers(size);
@@ -386,7 +391,7 @@ int leader(const Args& a, int size) {
   const InvariantSnapshot snap = capture_invariants(g);
   std::vector<uint8_t> used_in(static_cast<size_t>(g.nv()), 0);  // vertices a tet of IN uses
   for (int32_t v : g.tets) used_in[v] = 1;
-  const QualityStats before = compute_stats(g);
+  const QualityStats before = compute_stats(g, kRank0Threads);
   say("%s: %d vertices, %d tets, %d ranks; read in %.3f s\n", a.in.c_str(), g.nv(), g.nt(), size, t_read);
 
   std::vector<RoundLog> logs;
@@ -544,7 +549,7 @@ int leader(const Args& a, int size) {
     for (double x : L.improve_per_rank) L.improve_sum += x;
     // ---- merge
     t = now();
-    s = merge_parts(g, part, plans, results);
+    s = merge_parts(g, part, plans, results, kRank0Threads);
     L.t_merge = now() - t;
     if (!s) { failure = s.message; exit_code = kExitInvariant; break; }
     t = now();
@@ -593,7 +598,9 @@ int leader(const Args& a, int size) {
   }
   if (exit_code == kExitOk) {
     const double t = now();
-    s = write_mesh(a.out, g, a.wo);
+    WriteOptions wo = a.wo;
+    wo.threads = kRank0Threads;
+    s = write_mesh(a.out, g, wo);
     t_write = now() - t;
     if (!s) { failure = s.message; exit_code = kExitOutput; }
   }
@@ -638,7 +645,7 @@ int leader(const Args& a, int size) {
   }
   const double total = now() - t_start;
   const double t_stats = now();
-  const QualityStats after = compute_stats(g);
+  const QualityStats after = compute_stats(g, kRank0Threads);
   const double t_final_stats = now() - t_stats;
   if (!a.quiet) {
     std::printf("%s -> %s (%d ranks, mode %s, %zu rounds)\n", a.in.c_str(), a.out.c_str(), size,
