@@ -408,6 +408,7 @@ struct PyImproveOptions {
   long long iterations = 10, seed = 0, threads = 0;
   bool check = true;
   bool diagnose = false;
+  bool allow_insert = false, allow_remove = false;
 };
 
 /// The diagnosis of m as JSON (the CLI's "diagnosis" object, `max_list`
@@ -452,6 +453,8 @@ tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
   o.seed = static_cast<uint64_t>(p.seed);
   o.threads = static_cast<int>(p.threads);
   o.check_invariants = p.check;
+  o.allow_insert = p.allow_insert;
+  o.allow_remove = p.allow_remove;
   return o;
 }
 
@@ -632,7 +635,9 @@ PYBIND11_MODULE(_tetopt, mod) {
       .def_readwrite("seed", &PyImproveOptions::seed)
       .def_readwrite("threads", &PyImproveOptions::threads)
       .def_readwrite("check", &PyImproveOptions::check)
-      .def_readwrite("diagnose", &PyImproveOptions::diagnose);
+      .def_readwrite("diagnose", &PyImproveOptions::diagnose)
+      .def_readwrite("allow_insert", &PyImproveOptions::allow_insert)
+      .def_readwrite("allow_remove", &PyImproveOptions::allow_remove);
   mod.attr("HAVE_DIAGNOSE") = py::bool_(TETOPT_PY_HAVE_DIAGNOSE != 0);
 
   mod.def("improve_arrays", &improve_arrays, py::arg("points"), py::arg("tets"), py::arg("refs"),

@@ -336,6 +336,16 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
     << ", \"insertions\": " << r.insertions << ", \"vertex_removals\": " << r.removals
     << ", \"dihedral_vertex_moves\": " << r.vertex_moves
     << ", \"rounds\": " << r.rounds << "},\n";
+  // Removed vertices, 0-based ids of the input numbering (ascending): the
+  // output numbers the remaining vertices in order, so a caller can map
+  // vertex data (new id = old id - removed ids below it).
+  {
+    std::vector<int32_t> ids = r.removed_vertices;
+    std::sort(ids.begin(), ids.end());
+    j << "  \"removed_vertices\": [";
+    for (size_t i = 0; i < ids.size(); ++i) j << (i ? ", " : "") << ids[i];
+    j << "],\n";
+  }
   j << "  \"seconds\": {\"total\": " << num(r.seconds_total) << ", \"smoothing\": " << num(r.seconds_smooth)
     << ", \"topology\": " << num(r.seconds_topo) << ", \"invariant_check\": " << num(r.seconds_check) << "},\n";
   j << "  \"boundary_unchanged\": {\"checked\": " << (r.invariants_checked ? "true" : "false")

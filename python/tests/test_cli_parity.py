@@ -203,3 +203,34 @@ def test_diagnosis_matches_cli(cli, tmp_path):
                              threshold=0.5, diagnose=True)
     assert list(rep) == list(cli_rep)
     assert without_seconds(rep["diagnosis"]) == without_seconds(cli_rep["diagnosis"])
+
+
+def test_allow_insert_and_remove_match_cli_and_renumber(cli, tmp_path):
+    """--allow-insert --allow-remove through Python: same bytes as the CLI, and
+    report["removed_vertices"] (input ids) maps the input's triangles to the
+    output numbering."""
+    src = tmp_path / "rm.mesh"
+    run_cli(cli, "generate", src, "--cells", 8, 8, 8, "--jitter", 0.45, "--seed", 3)
+    cli_out, py_out = tmp_path / "cli.mesh", tmp_path / "py.mesh"
+    run_cli(cli, "improve", src, "-o", cli_out, "--report", tmp_path / "r.json", "-q", "--allow-insert",
+            "--allow-remove")
+    cli_rep = json.loads((tmp_path / "r.json").read_text())
+    mesh = tetopt.read(src)
+    p, t, r, rep = tetopt.improve(mesh.points, mesh.tets, mesh.refs, constrained_faces=mesh.triangles,
+                                  allow_insert=True, allow_remove=True)
+    assert comparable(rep) == comparable(cli_rep)
+    assert rep["options"]["allow_remove"] is True
+    removed = np.array(rep["removed_vertices"], dtype=np.int64)
+    assert rep["operations"]["vertex_removals"] == len(removed) > 0
+    assert len(p) == len(mesh.points) + rep["operations"]["insertions"] - len(removed)
+    # New id = old id - number of removed ids below it; triangles keep their coordinates.
+    tri = mesh.triangles - np.searchsorted(removed, mesh.triangles)
+    assert np.array_equal(p[tri], mesh.points[mesh.triangles])
+    # Vertex refs: the kept input vertices' in order, then 0 for inserted ones.
+    kept = np.delete(mesh.point_refs, removed[removed < len(mesh.points)])
+    prefs = np.concatenate([kept, np.zeros(len(p) - len(kept), dtype=kept.dtype)])
+    tetopt.write(py_out, dataclasses.replace(mesh, points=p, tets=t, refs=r, point_refs=prefs,
+                                             triangles=tri.astype(mesh.triangles.dtype)))
+    assert py_out.read_bytes() == cli_out.read_bytes()
+    # Every output vertex is used by a tet.
+    assert len(np.unique(t)) == len(p)

@@ -143,7 +143,8 @@ class Mesh:
 
 
 def _options(mode: str, optimizer: str, weight: float, threshold: float, iterations: int, seed: int,
-             threads: int, check: bool, diagnose: bool) -> Any:
+             threads: int, check: bool, diagnose: bool, allow_insert: bool = False,
+             allow_remove: bool = False) -> Any:
     o = _tetopt.ImproveOptions()
     for name, value, kind in (("mode", mode, str), ("optimizer", optimizer, str)):
         if not isinstance(value, kind):
@@ -161,6 +162,10 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
         setattr(o, name, int(value))
     o.check = bool(check)
     o.diagnose = bool(diagnose)
+    for name, value in (("allow_insert", allow_insert), ("allow_remove", allow_remove)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ValueError(f"{name}: expected a bool, got {value!r}")
+        setattr(o, name, bool(value))
     return o
 
 
@@ -193,6 +198,8 @@ def improve(
     check: bool = True,
     diagnose: bool = False,
     log: Optional[LogCallback] = None,
+    allow_insert: bool = False,
+    allow_remove: bool = False,
 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
     """Improves a tetrahedral mesh; returns ``(points, tets, refs, report)``.
 
@@ -237,9 +244,17 @@ def improve(
             with many constrained triangles, hence off by default.
         log: optional callable ``log(level, message)``, level one of
             'debug', 'info', 'progress', 'warning'.
+        allow_insert: mode 'best' may add free vertices inside the volume
+            (appended after the input's, which keep their ids).
+        allow_remove: mode 'best' may remove free vertices (edge
+            contraction where it raises the worst alpha of their star); the
+            remaining vertices keep their order, so ids after a removed one
+            shift down.  ``report["operations"]`` counts ``insertions`` and
+            ``vertex_removals``.
 
     Returns:
-        points: (n, 3) float64, the same vertices (constrained ones bit-identical).
+        points: (n, 3) float64, the same vertices (constrained ones bit-identical;
+            plus inserted, minus removed ones with allow_insert / allow_remove).
         tets: (m', 4) int32, the new connectivity (flips change m).
         refs: (m',) int32 region ref per new tet.
         report: dict with the keys of ``tetopt improve --report`` JSON:
@@ -257,7 +272,8 @@ def improve(
     into the library's own arrays and the outputs are handed over without a
     copy.
     """
-    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose)
+    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
+                 allow_insert, allow_remove)
     p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log)
     return p, t, r, _with_diagnosis(js, dj)
 
@@ -275,6 +291,8 @@ def improve_mesh(
     check: bool = True,
     diagnose: bool = False,
     log: Optional[LogCallback] = None,
+    allow_insert: bool = False,
+    allow_remove: bool = False,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole :class:`Mesh` (as :func:`read` returns it); returns ``(mesh, report)``.
 
@@ -284,7 +302,8 @@ def improve_mesh(
     that ``write()`` produces the file ``tetopt improve`` would.  The input
     mesh is not modified.
     """
-    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose)
+    o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
+                 allow_insert, allow_remove)
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
     d, js, dj = _tetopt.improve_mesh(mesh._as_dict(), o, log)

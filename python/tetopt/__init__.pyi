@@ -79,6 +79,8 @@ def improve(
     check: bool = True,
     diagnose: bool = False,
     log: Optional[LogCallback] = None,
+    allow_insert: bool = False,
+    allow_remove: bool = False,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.int32], Dict[str, Any]]:
     """Improves a tetrahedral mesh without touching its constrained vertices and faces.
 
@@ -100,6 +102,8 @@ def improve_mesh(
     check: bool = True,
     diagnose: bool = False,
     log: Optional[LogCallback] = None,
+    allow_insert: bool = False,
+    allow_remove: bool = False,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole Mesh as `tetopt improve` does (listed entities constrained, everything kept)."""
 
