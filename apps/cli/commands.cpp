@@ -57,7 +57,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
   const bool progress = !quiet && stderr_is_tty();
   if (progress) std::fprintf(stderr, "reading %s ...\r", path.c_str());
   OrientationReport orient;
-  Status s = read_mesh(path, m, &orient);
+  Status s = read_mesh(path, m, &orient, threads);
   if (!s) {
     if (progress) std::fputs("\033[K", stderr);
     std::fprintf(stderr, "tetopt: %s\n", s.message.c_str());

@@ -43,7 +43,10 @@ struct WriteOptions {
 /// primary arrays.  For TetGen, `data` is the .node file and `aux` maps
 /// ".ele" / ".face" to the other files' bytes via load_sibling (see read_mesh).
 /// No orientation normalisation, no topology.
-Status parse_medit(std::string_view data, const std::string& name, TetMesh& m);
+/// threads != 1: the big sections (Vertices, Triangles, Tetrahedra, at least
+/// 20,000 records laid out one per line) are parsed in parallel; the result
+/// and every error message are those of threads = 1.
+Status parse_medit(std::string_view data, const std::string& name, TetMesh& m, int threads = 1);
 Status parse_meditb(std::string_view data, const std::string& name, TetMesh& m);
 Status parse_gmsh(std::string_view data, const std::string& name, TetMesh& m);
 Status parse_vtk(std::string_view data, const std::string& name, TetMesh& m);
@@ -65,7 +68,7 @@ Status format_tetgen(const TetMesh& m, std::string& node, std::string& ele, std:
 /// and vice versa), parse, check_arrays, then normalize_orientation.  The
 /// orientation report (flipped? inverted / flat tet ids) goes to *orient when
 /// given.  Topology is not built.
-Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient = nullptr);
+Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient = nullptr, int threads = 1);
 
 /// Writes m (tets in the file's own orientation convention, see
 /// TetMesh::flipped_on_read) atomically: temporary file, then rename.

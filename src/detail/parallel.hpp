@@ -65,6 +65,29 @@ void parallel_for_each(int64_t n, int threads, const F& f) {
   });
 }
 
+/// Calls f(i) for every i in [0, n), one task per index (for a few coarse
+/// items, e.g. byte ranges of a file; parallel_for_each's fixed 8192-index
+/// blocks would put them all in one block).  f may write only data owned by i.
+template <class F>
+void parallel_for_each_item(int64_t n, int threads, const F& f) {
+  if (n <= 0) return;
+  threads = resolve_threads(threads);
+#ifdef TETOPT_HAVE_TBB
+  threads = std::min(threads, tbb::info::default_concurrency());
+  if (threads > 1 && n > 1) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, 1), [&](const tbb::blocked_range<int64_t>& r) {
+        for (int64_t i = r.begin(); i < r.end(); ++i) f(i);
+      });
+    });
+    return;
+  }
+#endif
+  (void)threads;
+  for (int64_t i = 0; i < n; ++i) f(i);
+}
+
 /// The per-block results block_fn(begin, end) -> T, in block order.
 template <class BlockFn>
 auto parallel_map_blocks(int64_t n, int threads, const BlockFn& block_fn) {

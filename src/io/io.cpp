@@ -103,7 +103,7 @@ Status write_file_atomic(const std::string& path, std::string_view bytes) {
   return Status::success();
 }
 
-Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient) {
+Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   m = TetMesh{};
   const Format f = format_from_path(path);
   std::string data;
@@ -132,7 +132,7 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient)
         if (s = read_file_bytes(path, data); !s) return s;
         bytes = data;
       }
-      if (f == Format::Medit) s = parse_medit(bytes, path, m);
+      if (f == Format::Medit) s = parse_medit(bytes, path, m, threads);
       else if (f == Format::MeditBinary) s = parse_meditb(bytes, path, m);
       else if (f == Format::Gmsh) s = parse_gmsh(bytes, path, m);
       else if (f == Format::Vtk) s = parse_vtk(bytes, path, m);

@@ -28,6 +28,7 @@
 // allocated, so a lying or absurd count ends in a Parse error.
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -101,6 +102,13 @@ class Lexer {
   }
   long line() const { return line_; }
   size_t remaining() const { return static_cast<size_t>(end_ - p_); }
+  const char* pos() const { return p_; }
+  const char* end() const { return end_; }
+  /// Moves to p, `lines` newlines further on (ParallelRecords).
+  void jump(const char* p, long lines) {
+    p_ = p;
+    line_ += lines;
+  }
   bool eof() {
     skip();
     return p_ >= end_;
@@ -230,9 +238,127 @@ bool is_keyword(std::string_view w) {
   return false;
 }
 
+// Parallel fast path for the big sections (Vertices, Triangles, Tetrahedra):
+// n records laid out one per line, k tokens each (the first `nreal` reals,
+// the others integers), no comment.  The rest of the file is cut into 1 MiB
+// chunks; their newlines are counted in parallel, which locates the end of
+// record n and the index of the first record starting in each chunk; then
+// the chunks parse their records in parallel with the same from_chars calls
+// as Lexer::real / Lexer::integer.  Anything else (another layout, a comment,
+// a bad or non-finite number, an index or ref out of range, a missing last
+// newline) makes run() return false with the lexer untouched, and the
+// reader's serial loop parses the section again and reports the error as it
+// always does.  So the result, and every error message, is the serial one.
+class ParallelRecords {
+ public:
+  struct Spec {
+    int k = 0, nreal = 0;       // tokens per record, leading reals
+    int64_t id_limit = -1;      // integers before the last: ids 1..limit (-1: 1..kMaxId), stored 0-based
+    bool ids = false;           // false: the integers are refs only (Vertices)
+  };
+  static constexpr int64_t kMinRecords = 20000;
+  static constexpr size_t kChunk = size_t{1} << 20;
+
+  /// reals: n * nreal; ids: n * (k - nreal - 1) when spec.ids; refs: n.
+  static bool run(Lexer& lx, int64_t n, const Spec& sp, int threads, double* reals, int32_t* ids, int32_t* refs) {
+    lx.skip();
+    const char* p0 = lx.pos();
+    const char* e = lx.end();
+    const size_t len = static_cast<size_t>(e - p0);
+    const int64_t nc = static_cast<int64_t>((len + kChunk - 1) / kChunk);
+    if (n <= 0 || nc == 0) return false;
+    auto chunk_begin = [&](int64_t c) { return p0 + std::min(len, static_cast<size_t>(c) * kChunk); };
+    std::vector<int64_t> nl(static_cast<size_t>(nc) + 1, 0);
+    detail::parallel_for_each_item(nc, threads, [&](int64_t c) {
+      int64_t cnt = 0;
+      for (const char* q = chunk_begin(c); (q = static_cast<const char*>(std::memchr(q, '\n', chunk_begin(c + 1) - q)));
+           ++q)
+        ++cnt;
+      nl[c + 1] = cnt;
+    });
+    for (int64_t c = 0; c < nc; ++c) nl[c + 1] += nl[c];  // nl[c]: newlines in [p0, chunk_begin(c))
+    if (nl[nc] < n) return false;  // the last record has no newline (or the count lies): serial
+    // The n-th newline ends record n-1.
+    int64_t cn = 0;
+    while (nl[cn + 1] < n) ++cn;
+    const char* stop = chunk_begin(cn);
+    for (int64_t seen = nl[cn];;) {
+      stop = static_cast<const char*>(std::memchr(stop, '\n', chunk_begin(cn + 1) - stop));
+      if (++seen == n) break;
+      ++stop;
+    }
+    std::atomic<bool> bad{false};
+    const int nint = sp.k - sp.nreal;  // ids then the ref
+    detail::parallel_for_each_item(cn + 1, threads, [&](int64_t c) {
+      const char* b = chunk_begin(c);
+      const char* cend = std::min(chunk_begin(c + 1), stop + 1);
+      int64_t i;
+      const char* r;
+      if (c == 0) {
+        i = 0;
+        r = p0;
+      } else {  // the first record starting in [b, cend): after a newline at b-1 or later
+        const char* q = static_cast<const char*>(std::memchr(b - 1, '\n', cend - (b - 1)));
+        if (!q || q >= stop) return;
+        i = nl[c] - (b[-1] == '\n' ? 1 : 0) + 1;  // newlines in [p0, q] = index of the record after q
+        r = q + 1;
+      }
+      while (i < n && r < cend && !bad.load(std::memory_order_relaxed)) {
+        const char* eol = static_cast<const char*>(std::memchr(r, '\n', stop + 1 - r));
+        if (!parse_record(r, eol, sp, nint, i, reals, ids, refs)) {
+          bad = true;
+          return;
+        }
+        r = eol + 1;
+        ++i;
+      }
+    });
+    if (bad) return false;
+    lx.jump(stop, static_cast<long>(n - 1));
+    return true;
+  }
+
+ private:
+  static bool horizontal_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+  static bool parse_record(const char* p, const char* eol, const ParallelRecords::Spec& sp, int nint, int64_t i,
+                           double* reals, int32_t* ids, int32_t* refs) {
+    auto next = [&]() -> bool {
+      while (p < eol && horizontal_space(*p)) ++p;
+      if (p < eol && *p == '+') ++p;
+      return p < eol && *p != '#';
+    };
+    auto ends = [&](const char* q) { return q == eol || horizontal_space(*q); };
+    for (int t = 0; t < sp.nreal; ++t) {
+      double v = 0;
+      if (!next()) return false;
+      const auto res = std::from_chars(p, eol, v);
+      if (res.ec != std::errc{} || !ends(res.ptr) || !std::isfinite(v)) return false;
+      reals[i * sp.nreal + t] = v;
+      p = res.ptr;
+    }
+    for (int t = 0; t < nint; ++t) {
+      int64_t v = 0;
+      if (!next()) return false;
+      const auto res = std::from_chars(p, eol, v);
+      if (res.ec != std::errc{} || !ends(res.ptr)) return false;
+      p = res.ptr;
+      if (t + 1 < nint) {  // an id
+        if (v < 1 || v > kMaxId || (sp.id_limit >= 0 && v > sp.id_limit)) return false;
+        ids[i * (nint - 1) + t] = static_cast<int32_t>(v - 1);
+      } else {  // the ref
+        if (v < std::numeric_limits<int32_t>::min() || v > kMaxId) return false;
+        refs[i] = static_cast<int32_t>(v);
+      }
+    }
+    while (p < eol && horizontal_space(*p)) ++p;
+    return p == eol;
+  }
+};
+
 class MeditAsciiReader {
  public:
-  MeditAsciiReader(std::string_view data, const std::string& name) : lx_(data), name_(name) {}
+  MeditAsciiReader(std::string_view data, const std::string& name, int threads = 1)
+      : lx_(data), name_(name), threads_(threads) {}
 
   Status run(TetMesh& out) {
     bool have_dim = false, have_vertices = false, have_tets = false, ended = false;
@@ -381,6 +507,16 @@ class MeditAsciiReader {
   Status read_vertices() {
     int64_t n = 0;
     if (Status s = read_count("Vertices", 4, n); !s) return s;
+    if (threads_ != 1 && n >= ParallelRecords::kMinRecords) {
+      m_.xyz.resize(3 * static_cast<size_t>(n));
+      m_.vert_ref.resize(static_cast<size_t>(n));
+      if (ParallelRecords::run(lx_, n, {4, 3, -1, false}, threads_, m_.xyz.data(), nullptr, m_.vert_ref.data())) {
+        nv_ = n;
+        return Status::success();
+      }
+      m_.xyz.clear();
+      m_.vert_ref.clear();
+    }
     m_.xyz.reserve(3 * static_cast<size_t>(n));
     m_.vert_ref.reserve(static_cast<size_t>(n));
     for (int64_t i = 1; i <= n; ++i) {
@@ -417,6 +553,16 @@ class MeditAsciiReader {
     const long kw_line = lx_.line();
     int64_t n = 0;
     if (Status s = read_count(kw, nper + 1, n); !s) return s;
+    if (threads_ != 1 && n >= ParallelRecords::kMinRecords) {
+      ids.resize(static_cast<size_t>(n) * nper);
+      refs.resize(static_cast<size_t>(n));
+      if (ParallelRecords::run(lx_, n, {nper + 1, 0, nv_, true}, threads_, nullptr, ids.data(), refs.data())) {
+        if (nv_ < 0) pending_.push_back({kw, kw_line, &ids, nper, Target::Vertex});
+        return Status::success();
+      }
+      ids.clear();
+      refs.clear();
+    }
     ids.reserve(static_cast<size_t>(n) * nper);
     refs.reserve(static_cast<size_t>(n));
     for (int64_t i = 1; i <= n; ++i) {
@@ -485,6 +631,7 @@ class MeditAsciiReader {
 
   Lexer lx_;
   const std::string& name_;
+  int threads_ = 1;
   TetMesh m_;
   int64_t nv_ = -1;
   bool have_edges_ = false, have_tris_ = false;
@@ -865,10 +1012,10 @@ Status guarded(const std::string& name, F&& f) {
 
 }  // namespace
 
-Status parse_medit(std::string_view data, const std::string& name, TetMesh& m) {
+Status parse_medit(std::string_view data, const std::string& name, TetMesh& m, int threads) {
   return guarded(name, [&] {
     TetMesh tmp;
-    MeditAsciiReader r(data, name);
+    MeditAsciiReader r(data, name, threads);
     Status s = r.run(tmp);
     if (s) m = std::move(tmp);
     return s;

@@ -686,3 +686,78 @@ TEST(IoMedit, LargeAsciiParsesQuickly) {
   EXPECT_EQ(r.nt(), m.nt());
   EXPECT_LT(sec, 5.0);
 }
+
+// The parallel fast path of the ASCII reader (sections of >= 20,000 records,
+// one per line) gives the serial reader's mesh bit for bit, and on any
+// irregular or broken file the serial reader's exact error (it falls back).
+TEST(IoMedit, AsciiParallelSectionsEqualSerial) {
+  BoxMeshOptions bo;
+  bo.nx = 24;
+  bo.ny = 20;
+  bo.nz = 14;  // 40,320 tets, 7,875 vertices
+  bo.jitter = 0.3;
+  bo.seed = 3;
+  bo.regions = 2;
+  const TetMesh box = make_box_mesh(bo);
+  std::string text;
+  ASSERT_TRUE(format_medit(box, text).ok());
+  auto same = [](const TetMesh& a, const TetMesh& b) {
+    return a.xyz.size() == b.xyz.size() &&
+           std::memcmp(a.xyz.data(), b.xyz.data(), a.xyz.size() * sizeof(double)) == 0 && a.tets == b.tets &&
+           a.tet_ref == b.tet_ref && a.vert_ref == b.vert_ref && a.tris == b.tris && a.tri_ref == b.tri_ref;
+  };
+  auto parse = [](const std::string& t, int threads, TetMesh& m) { return parse_medit(t, "p.mesh", m, threads); };
+  TetMesh serial, par;
+  ASSERT_TRUE(parse(text, 1, serial).ok());
+  ASSERT_TRUE(parse(text, 2, par).ok());
+  ASSERT_EQ(serial.nt(), box.nt());
+  EXPECT_TRUE(same(serial, par));
+  // Variants: each is parsed with 1 and 2 threads; both must agree (same
+  // mesh, or the same error message and line).
+  const size_t tet_kw = text.find("Tetrahedra");
+  ASSERT_NE(tet_kw, std::string::npos);
+  const size_t deep = text.find('\n', tet_kw + (text.size() - tet_kw) / 2) + 1;  // a record start mid-section
+  std::vector<std::pair<std::string, std::string>> variants;
+  auto edit = [&](const std::string& name, size_t at, size_t len, const std::string& with) {
+    std::string t = text;
+    t.replace(at, len, with);
+    variants.emplace_back(name, t);
+  };
+  const size_t sp = text.find(' ', deep);
+  edit("bad number", deep, 1, "x");
+  edit("id out of range", deep, sp - deep, "99999999");
+  edit("zero id", deep, sp - deep, "0");
+  edit("comment in a record", sp, 1, " # c\n");
+  edit("record split over two lines", sp, 1, "\n");
+  edit("tabs and CR", sp, 1, "\t\r ");
+  edit("plus sign", deep, 0, "+");
+  edit("nan coordinate", text.find('\n', text.find("Vertices") + 20) + 1, 1, "nan");
+  edit("huge coordinate (underflow reads as 0)", text.find('\n', text.find("Vertices") + 20) + 1, 1, "1e-400 ");
+  edit("missing End and last newline", text.rfind("End"), std::string::npos, "");
+  {
+    std::string t = text;  // the Tetrahedra count one too large
+    const size_t c = t.find('\n', tet_kw) + 1;
+    const size_t ce = t.find('\n', c);
+    t.replace(c, ce - c, std::to_string(box.nt() + 1));
+    variants.emplace_back("count too large", t);
+  }
+  for (const auto& [name, t] : variants) {
+    SCOPED_TRACE(name);
+    TetMesh a, b;
+    const Status sa = parse(t, 1, a), sb = parse(t, 2, b);
+    EXPECT_EQ(sa.ok(), sb.ok());
+    EXPECT_EQ(sa.message, sb.message);
+    EXPECT_EQ(sa.line, sb.line);
+    if (sa.ok()) {
+      EXPECT_TRUE(same(a, b));
+    }
+  }
+  // At least one variant must parse and several must fail, or the list tests nothing.
+  int ok = 0;
+  for (const auto& v : variants) {
+    TetMesh m;
+    ok += parse(v.second, 2, m).ok();
+  }
+  EXPECT_GE(ok, 2);
+  EXPECT_LE(ok, static_cast<int>(variants.size()) - 4);
+}
