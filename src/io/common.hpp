@@ -33,4 +33,11 @@ inline void file_tet(const TetMesh& m, int32_t t, Format target, int32_t out[4])
   }
 }
 
+/// parse_medit with the knobs of its parallel fast path (medit.cpp,
+/// ParallelRecords) exposed for tests and fuzzing: sections of at least
+/// min_records records take it, the rest of the file cut into `chunk`-byte
+/// pieces.  parse_medit uses 20,000 and 1 MiB (threads != 1) or never.
+Status parse_medit_tuned(std::string_view data, const std::string& name, TetMesh& m, int threads,
+                         int64_t min_records, size_t chunk);
+
 }  // namespace tetopt::detail

@@ -260,14 +260,16 @@ class ParallelRecords {
   static constexpr size_t kChunk = size_t{1} << 20;
 
   /// reals: n * nreal; ids: n * (k - nreal - 1) when spec.ids; refs: n.
-  static bool run(Lexer& lx, int64_t n, const Spec& sp, int threads, double* reals, int32_t* ids, int32_t* refs) {
+  static bool run(Lexer& lx, int64_t n, const Spec& sp, int threads, size_t chunk, double* reals, int32_t* ids,
+                  int32_t* refs) {
+    if (chunk == 0) return false;
     lx.skip();
     const char* p0 = lx.pos();
     const char* e = lx.end();
     const size_t len = static_cast<size_t>(e - p0);
-    const int64_t nc = static_cast<int64_t>((len + kChunk - 1) / kChunk);
+    const int64_t nc = static_cast<int64_t>((len + chunk - 1) / chunk);
     if (n <= 0 || nc == 0) return false;
-    auto chunk_begin = [&](int64_t c) { return p0 + std::min(len, static_cast<size_t>(c) * kChunk); };
+    auto chunk_begin = [&](int64_t c) { return p0 + std::min(len, static_cast<size_t>(c) * chunk); };
     std::vector<int64_t> nl(static_cast<size_t>(nc) + 1, 0);
     detail::parallel_for_each_item(nc, threads, [&](int64_t c) {
       int64_t cnt = 0;
@@ -357,8 +359,8 @@ class ParallelRecords {
 
 class MeditAsciiReader {
  public:
-  MeditAsciiReader(std::string_view data, const std::string& name, int threads = 1)
-      : lx_(data), name_(name), threads_(threads) {}
+  MeditAsciiReader(std::string_view data, const std::string& name, int threads, int64_t min_records, size_t chunk)
+      : lx_(data), name_(name), threads_(threads), min_records_(min_records), chunk_(chunk) {}
 
   Status run(TetMesh& out) {
     bool have_dim = false, have_vertices = false, have_tets = false, ended = false;
@@ -507,10 +509,11 @@ class MeditAsciiReader {
   Status read_vertices() {
     int64_t n = 0;
     if (Status s = read_count("Vertices", 4, n); !s) return s;
-    if (threads_ != 1 && n >= ParallelRecords::kMinRecords) {
+    if (n >= min_records_) {
       m_.xyz.resize(3 * static_cast<size_t>(n));
       m_.vert_ref.resize(static_cast<size_t>(n));
-      if (ParallelRecords::run(lx_, n, {4, 3, -1, false}, threads_, m_.xyz.data(), nullptr, m_.vert_ref.data())) {
+      if (ParallelRecords::run(lx_, n, {4, 3, -1, false}, threads_, chunk_, m_.xyz.data(), nullptr,
+                               m_.vert_ref.data())) {
         nv_ = n;
         return Status::success();
       }
@@ -553,10 +556,11 @@ class MeditAsciiReader {
     const long kw_line = lx_.line();
     int64_t n = 0;
     if (Status s = read_count(kw, nper + 1, n); !s) return s;
-    if (threads_ != 1 && n >= ParallelRecords::kMinRecords) {
+    if (n >= min_records_) {
       ids.resize(static_cast<size_t>(n) * nper);
       refs.resize(static_cast<size_t>(n));
-      if (ParallelRecords::run(lx_, n, {nper + 1, 0, nv_, true}, threads_, nullptr, ids.data(), refs.data())) {
+      if (ParallelRecords::run(lx_, n, {nper + 1, 0, nv_, true}, threads_, chunk_, nullptr, ids.data(),
+                               refs.data())) {
         if (nv_ < 0) pending_.push_back({kw, kw_line, &ids, nper, Target::Vertex});
         return Status::success();
       }
@@ -632,6 +636,8 @@ class MeditAsciiReader {
   Lexer lx_;
   const std::string& name_;
   int threads_ = 1;
+  int64_t min_records_ = 0;  // sections this long take ParallelRecords
+  size_t chunk_ = 0;
   TetMesh m_;
   int64_t nv_ = -1;
   bool have_edges_ = false, have_tris_ = false;
@@ -1013,9 +1019,16 @@ Status guarded(const std::string& name, F&& f) {
 }  // namespace
 
 Status parse_medit(std::string_view data, const std::string& name, TetMesh& m, int threads) {
+  return detail::parse_medit_tuned(data, name, m, threads,
+                                   threads == 1 ? std::numeric_limits<int64_t>::max() : ParallelRecords::kMinRecords,
+                                   ParallelRecords::kChunk);
+}
+
+Status detail::parse_medit_tuned(std::string_view data, const std::string& name, TetMesh& m, int threads,
+                                 int64_t min_records, size_t chunk) {
   return guarded(name, [&] {
     TetMesh tmp;
-    MeditAsciiReader r(data, name, threads);
+    MeditAsciiReader r(data, name, threads, std::max<int64_t>(1, min_records), chunk);
     Status s = r.run(tmp);
     if (s) m = std::move(tmp);
     return s;

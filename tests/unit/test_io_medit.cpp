@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "io/common.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/mesh.hpp"
@@ -741,6 +742,7 @@ TEST(IoMedit, AsciiParallelSectionsEqualSerial) {
     t.replace(c, ce - c, std::to_string(box.nt() + 1));
     variants.emplace_back("count too large", t);
   }
+  variants.emplace_back("unchanged", text);
   for (const auto& [name, t] : variants) {
     SCOPED_TRACE(name);
     TetMesh a, b;
@@ -751,6 +753,18 @@ TEST(IoMedit, AsciiParallelSectionsEqualSerial) {
     if (sa.ok()) {
       EXPECT_TRUE(same(a, b));
     }
+    // Every section through the fast path, in chunks of a few bytes (records
+    // straddle many chunk borders), on 1 and 3 threads.
+    for (int th : {1, 3})
+      for (size_t chunk : {size_t{7}, size_t{64}, size_t{4099}}) {
+        TetMesh c;
+        const Status sc = detail::parse_medit_tuned(t, "p.mesh", c, th, 1, chunk);
+        EXPECT_EQ(sa.message, sc.message) << "threads " << th << " chunk " << chunk;
+        EXPECT_EQ(sa.line, sc.line);
+        if (sa.ok() && sc.ok()) {
+          EXPECT_TRUE(same(a, c)) << "threads " << th << " chunk " << chunk;
+        }
+      }
   }
   // At least one variant must parse and several must fail, or the list tests nothing.
   int ok = 0;
