@@ -237,6 +237,8 @@ void run_tables(std::ostringstream& o, const HtmlReportInput& in) {
     << "<tr><td class=\"l\">edge removals</td><td>" << r.edge_removals << "</td></tr>\n"
     << "<tr><td class=\"l\">multi-face removals</td><td>" << r.multi_face_removals << "</td></tr>\n"
     << "<tr><td class=\"l\">all-boundary tets removed</td><td>" << r.all_boundary_removed << "</td></tr>\n"
+    << "<tr><td class=\"l\">vertices inserted</td><td>" << r.insertions << "</td></tr>\n"
+    << "<tr><td class=\"l\">vertices removed</td><td>" << r.removals << "</td></tr>\n"
     << "</table>\n";
 }
 
