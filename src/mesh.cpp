@@ -30,7 +30,7 @@ void face_key(const TetMesh& m, int32_t t, int f, int32_t out[3]) {
   sort3(out[0], out[1], out[2]);
 }
 
-Status check_arrays(const TetMesh& m, const std::string& name) {
+Status check_arrays(const TetMesh& m, const std::string& name, int threads) {
   if (m.xyz.size() % 3 != 0 || m.tets.size() % 4 != 0)
     return Status::error(ErrorCode::InvalidMesh, name + ": inconsistent array sizes");
   const int32_t nv = m.nv(), nt = m.nt();
@@ -39,13 +39,31 @@ Status check_arrays(const TetMesh& m, const std::string& name) {
     return Status::error(ErrorCode::InvalidMesh, name + ": tet_ref size differs from the tet count");
   if (!m.vert_ref.empty() && m.vert_ref.size() != static_cast<size_t>(nv))
     return Status::error(ErrorCode::InvalidMesh, name + ": vert_ref size differs from the vertex count");
-  for (int32_t v = 0; v < nv; ++v) {
-    const double* p = m.point(v);
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      return Status::error(ErrorCode::InvalidMesh,
-                           name + ": vertex " + std::to_string(v + 1) + " has a NaN or infinite coordinate");
-  }
-  for (int32_t t = 0; t < nt; ++t) {
+  // The first offending index of a scan, found over fixed blocks in parallel.
+  auto first_bad = [&](int64_t n, auto bad) {
+    return detail::parallel_reduce_blocks(
+        n, threads, n,
+        [&](int64_t b, int64_t e) {
+          for (int64_t i = b; i < e; ++i)
+            if (bad(i)) return i;
+          return n;
+        },
+        [](int64_t x, int64_t y) { return std::min(x, y); });
+  };
+  const int64_t bad_v = first_bad(nv, [&](int64_t v) {
+    const double* p = m.point(static_cast<int32_t>(v));
+    return !std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]);
+  });
+  if (bad_v < nv)
+    return Status::error(ErrorCode::InvalidMesh,
+                         name + ": vertex " + std::to_string(bad_v + 1) + " has a NaN or infinite coordinate");
+  const int64_t bad_t = first_bad(nt, [&](int64_t t) {
+    const int32_t* v = m.tet(static_cast<int32_t>(t));
+    for (int k = 0; k < 4; ++k)
+      if (v[k] < 0 || v[k] >= nv) return true;
+    return v[0] == v[1] || v[0] == v[2] || v[0] == v[3] || v[1] == v[2] || v[1] == v[3] || v[2] == v[3];
+  });
+  for (int32_t t = static_cast<int32_t>(bad_t); t < nt; ++t) {  // the message for the first bad tet
     const int32_t* v = m.tet(t);
     for (int k = 0; k < 4; ++k)
       if (v[k] < 0 || v[k] >= nv)
@@ -90,23 +108,24 @@ Status check_arrays(const TetMesh& m, const std::string& name) {
   return Status::success();
 }
 
-OrientationReport normalize_orientation(TetMesh& m) {
+OrientationReport normalize_orientation(TetMesh& m, int threads) {
   OrientationReport r;
   const int32_t nt = m.nt();
   std::vector<int8_t> sign(nt);
+  detail::parallel_for_each(nt, threads, [&](int64_t i) {
+    const int32_t* v = m.tet(static_cast<int32_t>(i));
+    sign[i] = static_cast<int8_t>(orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])));
+  });
   for (int32_t t = 0; t < nt; ++t) {
-    const int32_t* v = m.tet(t);
-    const Sign s = orient3d(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]));
-    sign[t] = static_cast<int8_t>(s);
-    if (s == Sign::Positive) r.positive++;
-    else if (s == Sign::Negative) r.negative++;
+    if (sign[t] > 0) r.positive++;
+    else if (sign[t] < 0) r.negative++;
     else r.flat++;
   }
   if (r.negative > r.positive) {
-    for (int32_t t = 0; t < nt; ++t) {
+    detail::parallel_for_each(nt, threads, [&](int64_t t) {
       std::swap(m.tets[4 * static_cast<size_t>(t) + kFlipA], m.tets[4 * static_cast<size_t>(t) + kFlipB]);
       sign[t] = static_cast<int8_t>(-sign[t]);
-    }
+    });
     std::swap(r.positive, r.negative);
     m.flipped_on_read = !m.flipped_on_read;
     r.flipped = true;

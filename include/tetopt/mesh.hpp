@@ -105,7 +105,9 @@ struct TetMesh {
 /// Checks what a reader must guarantee before anything else runs: at least one
 /// tet, every index in range, finite coordinates, array sizes consistent.
 /// `name` prefixes the message (usually the file name).
-Status check_arrays(const TetMesh& m, const std::string& name = "mesh");
+/// threads: for the vertex and tet scans (the first error in index order is
+/// reported whatever the count).
+Status check_arrays(const TetMesh& m, const std::string& name = "mesh", int threads = 1);
 
 /// Result of looking at every tet's exact orientation.
 struct OrientationReport {
@@ -118,7 +120,7 @@ struct OrientationReport {
 /// Makes tets positive: if most are negative the file used the opposite
 /// convention, so every tet is flipped and m.flipped_on_read toggles.  Tets
 /// that disagree with the majority or are flat are listed, not changed.
-OrientationReport normalize_orientation(TetMesh& m);
+OrientationReport normalize_orientation(TetMesh& m, int threads = 1);
 
 /// Builds vertex->tet CSR, face adjacency and the constrained classification.
 /// Fails (InvalidMesh, naming tet ids) when a face is shared by three or more

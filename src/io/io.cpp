@@ -145,8 +145,8 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
   if (m.tet_ref.empty()) m.tet_ref.assign(m.nt(), 0);
   if (m.tri_ref.size() < static_cast<size_t>(m.ntri())) m.tri_ref.resize(m.ntri(), 0);
   if (m.edge_ref.size() < m.edges.size() / 2) m.edge_ref.resize(m.edges.size() / 2, 0);
-  if (s = check_arrays(m, path); !s) return s;
-  OrientationReport r = normalize_orientation(m);
+  if (s = check_arrays(m, path, threads); !s) return s;
+  OrientationReport r = normalize_orientation(m, threads);
   if (orient) *orient = std::move(r);
   return Status::success();
 }

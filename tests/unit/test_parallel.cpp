@@ -204,3 +204,39 @@ TEST(Parallel, FlipPassesAreTheSerialOnesForEveryThreadCount) {
     EXPECT_EQ(stats[i].all_boundary_removed, stats[0].all_boundary_removed);
   }
 }
+
+// check_arrays and normalize_orientation scan in parallel blocks: the error
+// reported is the first in index order, and the orientation report (counts,
+// ids, flip) is the serial one, for every thread count.
+TEST(Parallel, ReaderChecksAreTheSerialOnes) {
+  TetMesh base = jittered_box();
+  for (int threads : {1, 2, 4}) {
+    TetMesh m = base;
+    // Two bad tets far apart (different blocks): the first must be named.
+    m.tets[4 * 15000 + 1] = m.tets[4 * 15000];
+    m.tets[4 * 20 + 2] = m.nv() + 5;
+    const Status s = check_arrays(m, "x", threads);
+    EXPECT_EQ(s.message, "x: tetrahedron 21 names vertex " + std::to_string(m.nv() + 6) + ", outside 1.." +
+                             std::to_string(m.nv()))
+        << threads;
+    TetMesh n = base;
+    n.xyz[3 * 17000 + 1] = std::nan("");
+    n.xyz[3 * 9 + 2] = INFINITY;
+    EXPECT_EQ(check_arrays(n, "x", threads).message, "x: vertex 10 has a NaN or infinite coordinate");
+  }
+  // Orientation: flip every tet but a few; the report and the mesh must not
+  // depend on the thread count.
+  TetMesh neg = base;
+  for (int32_t t = 0; t < neg.nt(); ++t)
+    if (t % 997 != 3) std::swap(neg.tets[4 * t + kFlipA], neg.tets[4 * t + kFlipB]);
+  TetMesh a = neg, b = neg;
+  const OrientationReport ra = normalize_orientation(a, 1), rb = normalize_orientation(b, 2);
+  EXPECT_TRUE(ra.flipped);
+  EXPECT_GT(ra.inverted.size(), 0u);
+  EXPECT_EQ(ra.positive, rb.positive);
+  EXPECT_EQ(ra.negative, rb.negative);
+  EXPECT_EQ(ra.flat, rb.flat);
+  EXPECT_EQ(ra.inverted, rb.inverted);
+  EXPECT_EQ(ra.flipped, rb.flipped);
+  EXPECT_EQ(a.tets, b.tets);
+}
