@@ -12,6 +12,8 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "detail/parallel.hpp"
+
 #include "tetopt/conventions.hpp"
 #include "tetopt/quality.hpp"
 
@@ -305,19 +307,25 @@ ApexResult best_apex(const double* a, const double* b, const double* c, ApexObje
 namespace {
 
 // Constrained triangles, each once: packed face 4t+f of its first tet.
-std::vector<int32_t> constrained_faces(const TetMesh& m) {
+std::vector<int32_t> constrained_faces(const TetMesh& m, int threads) {
   std::vector<int32_t> out;
-  const int32_t nt = m.nt();
-  for (int32_t t = 0; t < nt; ++t) {
-    const uint8_t mask = m.face_mask[t];
-    if (!mask) continue;
-    for (int f = 0; f < 4; ++f) {
-      if (!(mask & (1u << f))) continue;
-      const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f];
-      if (nb >= 0 && (nb >> 2) < t) continue;  // counted from the other tet
-      out.push_back(4 * t + f);
-    }
-  }
+  // Per-block lists joined in block order: the serial list.
+  for (const auto& part : detail::parallel_map_blocks(m.nt(), threads, [&](int64_t b, int64_t e) {
+         std::vector<int32_t> o;
+         for (int64_t i = b; i < e; ++i) {
+           const auto t = static_cast<int32_t>(i);
+           const uint8_t mask = m.face_mask[t];
+           if (!mask) continue;
+           for (int f = 0; f < 4; ++f) {
+             if (!(mask & (1u << f))) continue;
+             const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f];
+             if (nb >= 0 && (nb >> 2) < t) continue;  // counted from the other tet
+             o.push_back(4 * t + f);
+           }
+         }
+         return o;
+       }))
+    out.insert(out.end(), part.begin(), part.end());
   return out;
 }
 
@@ -354,17 +362,17 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-MeshBound mesh_bound(const TetMesh& m) {
+MeshBound mesh_bound(const TetMesh& m, int threads) {
   const auto t0 = std::chrono::steady_clock::now();
   MeshBound mb;
-  const std::vector<int32_t> faces = constrained_faces(m);
+  const std::vector<int32_t> faces = constrained_faces(m, threads);
   mb.triangles = static_cast<int64_t>(faces.size());
   if (faces.empty()) return mb;
   const size_t nf = faces.size();
   // Cheap achieved scores (maximised), per objective.
   std::vector<double> cheap[3];
   for (auto& c : cheap) c.resize(nf);
-  for (size_t i = 0; i < nf; ++i) {
+  detail::parallel_for_each(static_cast<int64_t>(nf), threads, [&](int64_t i) {
     const double* p[3];
     face_points(m, faces[i], p);
     double qa, qmin, qmax;
@@ -372,7 +380,7 @@ MeshBound mesh_bound(const TetMesh& m) {
     cheap[0][i] = std::max(qa, cheap_apex_value(p[0], p[1], p[2], ApexObjective::Alpha));
     cheap[1][i] = std::max(qmin, cheap_apex_value(p[0], p[1], p[2], ApexObjective::MinDihedral));
     cheap[2][i] = -std::min(qmax, cheap_apex_value(p[0], p[1], p[2], ApexObjective::MaxDihedral));
-  }
+  });
   std::vector<uint8_t> refined(nf, 0);
   const ApexObjective objs[3] = {ApexObjective::Alpha, ApexObjective::MinDihedral, ApexObjective::MaxDihedral};
   double result[3];
@@ -450,20 +458,34 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   d.tet_class.assign(static_cast<size_t>(nt), static_cast<uint8_t>(TetClass::Good));
   std::unordered_map<int32_t, double> face_best;  // canonical packed face -> best alpha
   std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> shape_best;  // similar triangles
-  for (int32_t t = 0; t < nt; ++t) {
+  // The poor tets, found over parallel blocks (in index order).
+  std::vector<int32_t> poor;
+  for (const auto& part : detail::parallel_map_blocks(nt, opt.threads, [&](int64_t b, int64_t e) {
+         std::vector<int32_t> o;
+         for (int64_t t = b; t < e; ++t)
+           if (tet_alpha(m, static_cast<int32_t>(t)) < opt.threshold) o.push_back(static_cast<int32_t>(t));
+         return o;
+       }))
+    poor.insert(poor.end(), part.begin(), part.end());
+  // Their measures in parallel; the triangle searches (shared caches) below.
+  std::vector<PoorTet> info(poor.size());
+  detail::parallel_for_each(static_cast<int64_t>(poor.size()), opt.threads, [&](int64_t i) {
+    const int32_t t = poor[i];
     const int32_t* v = m.tet(t);
     const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *e = m.point(v[3]);
-    const double q = alpha(a, b, c, e);
-    if (q >= opt.threshold) continue;
-    PoorTet p;
+    PoorTet& p = info[i];
     p.tet = t;
-    p.alpha = q;
+    p.alpha = alpha(a, b, c, e);
     p.kind = m.tet_kind.empty() ? 0 : m.tet_kind[t];
     double dh[6];
     dihedral_angles(a, b, c, e, dh);
     p.dihedral_min = *std::min_element(dh, dh + 6);
     p.dihedral_max = *std::max_element(dh, dh + 6);
     for (int k = 0; k < 3; ++k) p.centroid[k] = (a[k] + b[k] + c[k] + e[k]) / 4;
+  });
+  d.poor.reserve(poor.size());
+  for (PoorTet& p : info) {
+    const int32_t t = p.tet;
     const uint8_t mask = m.face_mask.empty() ? 0 : m.face_mask[t];
     for (int f = 0; f < 4; ++f) {
       if (!(mask & (1u << f))) continue;
@@ -504,13 +526,13 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     else p.cls = TetClass::Improvable;
     d.tet_class[t] = static_cast<uint8_t>(p.cls);
     d.count[static_cast<int>(p.cls)]++;
-    d.poor.push_back(p);
+    d.poor.push_back(std::move(p));
   }
   d.count[0] = nt - d.count[1] - d.count[2] - d.count[3];
   std::sort(d.poor.begin(), d.poor.end(), [](const PoorTet& x, const PoorTet& y) {
     return x.alpha < y.alpha || (x.alpha == y.alpha && x.tet < y.tet);
   });
-  if (opt.mesh_bound) d.bound = mesh_bound(m);
+  if (opt.mesh_bound) d.bound = mesh_bound(m, opt.threads);
   d.seconds = seconds_since(t0);
   return d;
 }

@@ -129,7 +129,7 @@ int cmd_improve(const std::vector<std::string>& args) {
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool want_diag = !quiet || !field.empty() || !report_path.empty() || !html.empty();
   Diagnosis diag;
-  if (want_diag) diag = diagnose(m, DiagnoseOptions{opt.threshold, true});
+  if (want_diag) diag = diagnose(m, DiagnoseOptions{opt.threshold, true, opt.threads});
   if (!field.empty()) {
     std::vector<CellField> fields = quality_cell_fields(m);
     fields.insert(fields.begin() + 1, CellField{"alpha_before", alpha_before.lookup(m), false});

@@ -108,8 +108,8 @@ static const char* kQualityHelp =
     "  --html FILE       write a self-contained HTML report (histograms, tables,\n"
     "                    diagnosis with the worst tets)\n"
     "  --threshold G     alpha below which a tet is diagnosed (default 0.3)\n"
-    "  --threads K       worker threads for the topology and the statistics\n"
-    "                    (default 1, 0 = all cores; the numbers are the same for any K)\n"
+    "  --threads K       worker threads for reading, the topology, the statistics and the\n"
+    "                    diagnosis (default 1, 0 = all cores; the same output for any K)\n"
     "  --no-histogram    omit the histograms\n"
     "  -q                no notes or progress on stderr\n"
     "\n"
@@ -151,6 +151,7 @@ int cmd_quality(const std::vector<std::string>& args) {
   if (in.empty()) { std::fputs(kQualityHelp, stderr); return kExitUsage; }
   TetMesh m;
   if (!load_mesh(in, m, quiet || json, threads)) return kExitInput;
+  dopt.threads = threads;
   const QualityStats s = compute_stats(m, threads);
   const Diagnosis diag = diagnose(m, dopt);
   if (json) {

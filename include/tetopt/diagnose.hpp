@@ -103,7 +103,7 @@ struct MeshBound {
 };
 
 /// Computes the mesh-wide bound.  Requires m's topology.
-MeshBound mesh_bound(const TetMesh& m);
+MeshBound mesh_bound(const TetMesh& m, int threads = 1);
 
 enum class TetClass : uint8_t { Good = 0, LockedByTriangle = 1, LockedByNeighbours = 2, Improvable = 3 };
 const char* tet_class_name(TetClass c);
@@ -137,6 +137,7 @@ struct Diagnosis {
 struct DiagnoseOptions {
   double threshold = 0.3;   ///< gamma
   bool mesh_bound = true;   ///< also compute the mesh-wide bound
+  int threads = 1;          ///< for the scans over all tets and triangles (same result for every count)
 };
 
 /// Classifies every tet of m (see the essay above).  Requires m's topology.
