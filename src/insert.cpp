@@ -38,28 +38,25 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     // Worst first: the worst tets get the first choice of cavity.
     std::stable_sort(work.begin(), work.end(),
                      [&](int32_t a, int32_t b) { return ed.cached_alpha(a) < ed.cached_alpha(b); });
-    int64_t done = 0;
+    int64_t ins = 0, rem = 0;
     for (int32_t t : work) {
       if (!ed.alive(t) || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
       ++st.tried;
-      if (o.insert && ed.insert_vertex(t) == TopoResult::Applied) {
-        ++done;
-      } else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) {
-        ++done;
-        ++st.removed;
-      }
+      if (o.insert && ed.insert_vertex(t) == TopoResult::Applied) ++ins;
+      else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) ++rem;
     }
-    st.inserted += done;
+    st.inserted += ins;
+    st.removed += rem;
     if (log)
       log(LogLevel::Info, "insert pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
-                              " tets visited, " + std::to_string(done) + " vertices inserted or removed");
-    if (done == 0) break;
+                              " tets visited, " + std::to_string(ins) + " vertices inserted, " + std::to_string(rem) +
+                              " removed");
+    if (ins + rem == 0) break;
   }
   st.alpha_worst_after = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t)
     if (ed.alive(t)) st.alpha_worst_after = std::min(st.alpha_worst_after, ed.cached_alpha(t));
   st.removed_vertices = ed.removed();
-  st.inserted -= st.removed;
   ed.finish();
   st.vertices_after = m.nv() - st.removed;
   st.tets_after = m.nt();
