@@ -32,29 +32,36 @@ inline int resolve_threads(int t) {
 
 inline int64_t block_count(int64_t n) { return n > 0 ? (n + kBlock - 1) / kBlock : 0; }
 
-/// Calls body(begin, end) for consecutive blocks covering [0, n), on up to
-/// `threads` threads (1: the calling thread only; 0: all cores).
-template <class Body>
-void parallel_blocks(int64_t n, int threads, const Body& body) {
-  if (n <= 0) return;
-  const int64_t nb = block_count(n);
+/// Calls item(i) for every i in [0, m) on up to `threads` threads (1: the
+/// calling thread only, in order; 0: all cores), one task per item.
+template <class Item>
+void parallel_items(int64_t m, int threads, const Item& item) {
+  if (m <= 0) return;
   threads = resolve_threads(threads);
 #ifdef TETOPT_HAVE_TBB
   // More threads than the hardware has only adds switching (and oneTBB warns
   // about the workers it cannot grant); the result does not depend on it.
   threads = std::min(threads, tbb::info::default_concurrency());
-  if (threads > 1 && nb > 1) {
+  if (threads > 1 && m > 1) {
     tbb::task_arena arena(threads);
     arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int64_t>(0, nb, 1), [&](const tbb::blocked_range<int64_t>& r) {
-        for (int64_t b = r.begin(); b < r.end(); ++b) body(b * kBlock, std::min(n, (b + 1) * kBlock));
+      tbb::parallel_for(tbb::blocked_range<int64_t>(0, m, 1), [&](const tbb::blocked_range<int64_t>& r) {
+        for (int64_t i = r.begin(); i < r.end(); ++i) item(i);
       });
     });
     return;
   }
 #endif
   (void)threads;
-  for (int64_t b = 0; b < nb; ++b) body(b * kBlock, std::min(n, (b + 1) * kBlock));
+  for (int64_t i = 0; i < m; ++i) item(i);
+}
+
+/// Calls body(begin, end) for consecutive blocks covering [0, n), on up to
+/// `threads` threads (1: the calling thread only; 0: all cores).
+template <class Body>
+void parallel_blocks(int64_t n, int threads, const Body& body) {
+  if (n <= 0) return;
+  parallel_items(block_count(n), threads, [&](int64_t b) { body(b * kBlock, std::min(n, (b + 1) * kBlock)); });
 }
 
 /// Calls f(i) for every i in [0, n) (see parallel_blocks).
@@ -70,22 +77,7 @@ void parallel_for_each(int64_t n, int threads, const F& f) {
 /// blocks would put them all in one block).  f may write only data owned by i.
 template <class F>
 void parallel_for_each_item(int64_t n, int threads, const F& f) {
-  if (n <= 0) return;
-  threads = resolve_threads(threads);
-#ifdef TETOPT_HAVE_TBB
-  threads = std::min(threads, tbb::info::default_concurrency());
-  if (threads > 1 && n > 1) {
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, 1), [&](const tbb::blocked_range<int64_t>& r) {
-        for (int64_t i = r.begin(); i < r.end(); ++i) f(i);
-      });
-    });
-    return;
-  }
-#endif
-  (void)threads;
-  for (int64_t i = 0; i < n; ++i) f(i);
+  parallel_items(n, threads, f);
 }
 
 /// The per-block results block_fn(begin, end) -> T, in block order.

@@ -35,6 +35,16 @@ std::set<std::array<int32_t, 3>> constrained_faces(const TetMesh& m) {
   return c;
 }
 
+// 5 x 5 x 5 cells, jitter 0.48: many poor tets, for insertion and removal.
+TetMesh rough_box(int regions, uint64_t seed) {
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 5;
+  bo.jitter = 0.48;
+  bo.seed = seed;
+  bo.regions = regions;
+  return make_box_mesh(bo);
+}
+
 double worst(const TetMesh& m) {
   double w = 2;
   for (int32_t t = 0; t < m.nt(); ++t) w = std::min(w, tet_alpha(m, t));
@@ -48,12 +58,7 @@ TEST(Insert, PassKeepsInvariantsAndAppendsFreeVertices) {
   for (int regions : {1, 2})
     for (uint64_t seed : {1u, 2u, 3u}) {
       SCOPED_TRACE(regions * 100 + seed);
-      BoxMeshOptions bo;
-      bo.nx = bo.ny = bo.nz = 5;
-      bo.jitter = 0.48;
-      bo.seed = seed;
-      bo.regions = regions;
-      TetMesh m = make_box_mesh(bo);
+      TetMesh m = rough_box(regions, seed);
       ASSERT_TRUE(build_topology(m).ok());
       const std::vector<double> xyz = m.xyz;
       const auto faces = constrained_faces(m);
@@ -151,12 +156,7 @@ TEST(Insert, VertexRemovalKeepsInvariantsAndCompactionRenumbers) {
   for (int regions : {1, 2})
     for (uint64_t seed : {1u, 2u, 3u}) {
       SCOPED_TRACE(regions * 100 + seed);
-      BoxMeshOptions bo;
-      bo.nx = bo.ny = bo.nz = 5;
-      bo.jitter = 0.48;
-      bo.seed = seed;
-      bo.regions = regions;
-      TetMesh m = make_box_mesh(bo);
+      TetMesh m = rough_box(regions, seed);
       ASSERT_TRUE(build_topology(m).ok());
       const InvariantSnapshot snap = capture_invariants(m);
       const TetMesh before = m;
