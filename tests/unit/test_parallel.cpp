@@ -210,6 +210,10 @@ TEST(Parallel, FlipPassesAreTheSerialOnesForEveryThreadCount) {
 // ids, flip) is the serial one, for every thread count.
 TEST(Parallel, ReaderChecksAreTheSerialOnes) {
   TetMesh base = jittered_box();
+  BoxMeshOptions wo;
+  wo.nx = wo.ny = 30;
+  wo.nz = 12;
+  const TetMesh wide = make_box_mesh(wo);
   for (int threads : {1, 2, 4}) {
     TetMesh m = base;
     // Two bad tets far apart (different blocks): the first must be named.
@@ -219,8 +223,10 @@ TEST(Parallel, ReaderChecksAreTheSerialOnes) {
     EXPECT_EQ(s.message, "x: tetrahedron 21 names vertex " + std::to_string(m.nv() + 6) + ", outside 1.." +
                              std::to_string(m.nv()))
         << threads;
-    TetMesh n = base;
-    n.xyz[3 * 17000 + 1] = std::nan("");
+    // Two bad vertices in different blocks of 8192 (the box has 12,493).
+    TetMesh n = wide;
+    ASSERT_GT(n.nv(), 12001);
+    n.xyz[3 * 12000 + 1] = std::nan("");
     n.xyz[3 * 9 + 2] = INFINITY;
     EXPECT_EQ(check_arrays(n, "x", threads).message, "x: vertex 10 has a NaN or infinite coordinate");
   }
