@@ -459,14 +459,8 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   std::unordered_map<int32_t, double> face_best;  // canonical packed face -> best alpha
   std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> shape_best;  // similar triangles
   // The poor tets, found over parallel blocks (in index order).
-  std::vector<int32_t> poor;
-  for (const auto& part : detail::parallel_map_blocks(nt, opt.threads, [&](int64_t b, int64_t e) {
-         std::vector<int32_t> o;
-         for (int64_t t = b; t < e; ++t)
-           if (tet_alpha(m, static_cast<int32_t>(t)) < opt.threshold) o.push_back(static_cast<int32_t>(t));
-         return o;
-       }))
-    poor.insert(poor.end(), part.begin(), part.end());
+  const std::vector<int32_t> poor = detail::parallel_select(
+      nt, opt.threads, [&](int64_t t) { return tet_alpha(m, static_cast<int32_t>(t)) < opt.threshold; });
   // Their measures in parallel; the triangle searches (shared caches) below.
   std::vector<PoorTet> info(poor.size());
   detail::parallel_for_each(static_cast<int64_t>(poor.size()), opt.threads, [&](int64_t i) {

@@ -233,15 +233,8 @@ double TopoEditor::deferred(int32_t t) const {
 double TopoEditor::min_cached() const {
   const int32_t nt = m_.nt();
   if (lb_.empty())  // nothing deferred: a plain minimum over the live tets
-    return detail::parallel_reduce_blocks(
-        nt, o_.threads, kInf,
-        [&](int64_t b, int64_t e) {
-          double lo = kInf;
-          for (int64_t t = b; t < e; ++t)
-            if (alive(static_cast<int32_t>(t))) lo = std::min(lo, alpha_[t]);
-          return lo;
-        },
-        [](double x, double y) { return std::min(x, y); });
+    return detail::parallel_min(nt, o_.threads,
+                                [&](int64_t t) { return alive(static_cast<int32_t>(t)) ? alpha_[t] : kInf; });
   double lo = kInf;
   for (int32_t t = 0; t < nt; ++t)
     if (alive(t) && alpha_[t] == alpha_[t]) lo = std::min(lo, alpha_[t]);
@@ -1320,23 +1313,13 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
       // change of the previous pass: the others would meet the same shells
       // and sandwiches (geometry does not move here) and fail again.
       const uint32_t stamp = ed.next_stamp();
-      work.clear();
       auto wanted = [&](int32_t t) {
         return ed.alive(t) && (p == 0 || ed.touched_since(t, prev_stamp)) &&
                (kind == PassKind::Quality || m.tet_kind[t] == 4) && ed.below(t, o.quality_threshold);
       };
-      if (ed.deferring()) {  // below() may fill the deferred cache: serial
-        for (int32_t t = 0; t < m.nt(); ++t)
-          if (wanted(t)) work.push_back(t);
-      } else {  // per-block lists joined in block order: the serial list
-        for (const auto& part : detail::parallel_map_blocks(m.nt(), o.threads, [&](int64_t b, int64_t e) {
-               std::vector<int32_t> w;
-               for (int64_t t = b; t < e; ++t)
-                 if (wanted(static_cast<int32_t>(t))) w.push_back(static_cast<int32_t>(t));
-               return w;
-             }))
-          work.insert(work.end(), part.begin(), part.end());
-      }
+      // below() may fill a deferred dihedral cache: then serial.
+      work = detail::parallel_select(m.nt(), ed.deferring() ? 1 : o.threads,
+                                     [&](int64_t t) { return wanted(static_cast<int32_t>(t)); });
       prev_stamp = stamp;
       const bool all_boundary = kind == PassKind::AllBoundary;
       const int64_t changed = ed.improve_tets(work, !all_boundary, all_boundary, o.quality_threshold);
@@ -1463,14 +1446,8 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   // Default floor: the current worst alpha (never lowered).  A caller may
   // trade some worst alpha for angles by giving a lower floor explicitly.
   if (!(d.alpha_floor > -1e300))
-    d.alpha_floor = detail::parallel_reduce_blocks(
-        m.nt(), o.threads, kInf,
-        [&](int64_t b, int64_t e) {
-          double w = kInf;
-          for (int64_t t = b; t < e; ++t) w = std::min(w, tet_alpha(m, static_cast<int32_t>(t)));
-          return w;
-        },
-        [](double x, double y) { return std::min(x, y); });
+    d.alpha_floor =
+        detail::parallel_min(m.nt(), o.threads, [&](int64_t t) { return tet_alpha(m, static_cast<int32_t>(t)); });
   TopoStats total;
   int64_t moves = 0;
   std::optional<TopoEditor> evaluator;

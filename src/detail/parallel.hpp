@@ -9,6 +9,7 @@
 #pragma once
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <thread>
 #include <vector>
 
@@ -72,14 +73,6 @@ void parallel_for_each(int64_t n, int threads, const F& f) {
   });
 }
 
-/// Calls f(i) for every i in [0, n), one task per index (for a few coarse
-/// items, e.g. byte ranges of a file; parallel_for_each's fixed 8192-index
-/// blocks would put them all in one block).  f may write only data owned by i.
-template <class F>
-void parallel_for_each_item(int64_t n, int threads, const F& f) {
-  parallel_items(n, threads, f);
-}
-
 /// The per-block results block_fn(begin, end) -> T, in block order.
 template <class BlockFn>
 auto parallel_map_blocks(int64_t n, int threads, const BlockFn& block_fn) {
@@ -96,6 +89,34 @@ T parallel_reduce_blocks(int64_t n, int threads, T init, const BlockFn& block_fn
   T acc = init;
   for (const T& p : parallel_map_blocks(n, threads, block_fn)) acc = join(acc, p);
   return acc;
+}
+
+/// The indices i in [0, n) with pred(i), ascending (per-block lists joined
+/// in block order).
+template <class Pred>
+std::vector<int32_t> parallel_select(int64_t n, int threads, const Pred& pred) {
+  std::vector<int32_t> out;
+  for (const auto& part : parallel_map_blocks(n, threads, [&](int64_t b, int64_t e) {
+         std::vector<int32_t> w;
+         for (int64_t i = b; i < e; ++i)
+           if (pred(i)) w.push_back(static_cast<int32_t>(i));
+         return w;
+       }))
+    out.insert(out.end(), part.begin(), part.end());
+  return out;
+}
+
+/// min over i in [0, n) of f(i) (+infinity when n == 0).
+template <class F>
+double parallel_min(int64_t n, int threads, const F& f) {
+  return parallel_reduce_blocks(
+      n, threads, std::numeric_limits<double>::infinity(),
+      [&](int64_t b, int64_t e) {
+        double lo = std::numeric_limits<double>::infinity();
+        for (int64_t i = b; i < e; ++i) lo = std::min(lo, f(i));
+        return lo;
+      },
+      [](double x, double y) { return std::min(x, y); });
 }
 
 }  // namespace tetopt::detail

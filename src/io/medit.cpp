@@ -271,7 +271,7 @@ class ParallelRecords {
     if (n <= 0 || nc == 0) return false;
     auto chunk_begin = [&](int64_t c) { return p0 + std::min(len, static_cast<size_t>(c) * chunk); };
     std::vector<int64_t> nl(static_cast<size_t>(nc) + 1, 0);
-    detail::parallel_for_each_item(nc, threads, [&](int64_t c) {
+    detail::parallel_items(nc, threads, [&](int64_t c) {
       int64_t cnt = 0;
       for (const char* q = chunk_begin(c); (q = static_cast<const char*>(std::memchr(q, '\n', chunk_begin(c + 1) - q)));
            ++q)
@@ -291,7 +291,7 @@ class ParallelRecords {
     }
     std::atomic<bool> bad{false};
     const int nint = sp.k - sp.nreal;  // ids then the ref
-    detail::parallel_for_each_item(cn + 1, threads, [&](int64_t c) {
+    detail::parallel_items(cn + 1, threads, [&](int64_t c) {
       const char* b = chunk_begin(c);
       const char* cend = std::min(chunk_begin(c + 1), stop + 1);
       int64_t i;
