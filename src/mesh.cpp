@@ -2,6 +2,7 @@
 #include "tetopt/mesh.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -188,6 +189,8 @@ Status compact_vertices(TetMesh& m, const std::vector<int32_t>& drop, std::vecto
 }
 
 void build_vertex_tets(TetMesh& m) {
+  // Serial: a parallel count and scatter (atomic increments, then sorting
+  // every star) was 5-8x slower on the impeller at 2 threads.
   const int32_t nv = m.nv(), nt = m.nt();
   m.vt_offsets.assign(static_cast<size_t>(nv) + 1, 0);
   for (int32_t v : m.tets) m.vt_offsets[v + 1]++;
@@ -206,9 +209,11 @@ struct FirstError {
   Status status;
 };
 FirstError earlier(const FirstError& a, const FirstError& b) { return b.at < a.at ? b : a; }
+// Two tets sharing two faces have the same four vertices: a duplicate.
+Status check_duplicates(const TetMesh& m, int threads);
 }  // namespace
 
-Status build_adjacency(TetMesh& m, int threads) {
+Status build_adjacency_sorted(TetMesh& m, int threads) {
   // Faces are bucketed by their smallest vertex (counting sort), then each
   // small bucket is sorted by the two other vertices; equal neighbours pair
   // up.  The buckets are independent (every face is in one), so they are
@@ -287,8 +292,87 @@ Status build_adjacency(TetMesh& m, int threads) {
       },
       earlier);
   if (!err.status) return err.status;
+  return check_duplicates(m, threads);
+}
+
+namespace {
+// Face adjacency from the vertex stars (off/vt as in TetMesh::vt_offsets /
+// vt_tets): the faces whose smallest vertex is v are found among the tets of
+// v's star, sorted by their two other vertices, and equal neighbours pair
+// up -- the buckets of build_adjacency_sorted, gathered per vertex instead of
+// by a global counting sort, so every vertex is independent and the loop is
+// parallel (its result does not depend on the thread count).  Returns false
+// on anything a valid mesh cannot have (a face in three or more tets, or a
+// one-sided link); the caller then runs build_adjacency_sorted, which finds
+// the same links and reports the first defect in its own order.
+bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std::vector<int32_t>& vt, int threads) {
+  const int32_t nt = m.nt(), nv = static_cast<int32_t>(off.size()) - 1;
+  m.adj.resize(4 * static_cast<size_t>(nt));
+  std::atomic<bool> ok{true};
+  struct Entry {
+    int32_t b, c, face;
+  };
+  detail::parallel_blocks(nv, threads, [&](int64_t vb, int64_t ve) {
+    std::vector<Entry> ent;
+    for (int64_t vi = vb; vi < ve; ++vi) {
+      const auto v = static_cast<int32_t>(vi);
+      ent.clear();
+      for (int32_t i = off[v]; i < off[v + 1]; ++i) {
+        const int32_t t = vt[i];
+        const int32_t* tv = m.tet(t);
+        for (int f = 0; f < 4; ++f) {
+          int32_t k0 = tv[kFaceVertex[f][0]], k1 = tv[kFaceVertex[f][1]], k2 = tv[kFaceVertex[f][2]];
+          sort3(k0, k1, k2);
+          if (k0 == v) ent.push_back({k1, k2, 4 * t + f});
+        }
+      }
+      std::sort(ent.begin(), ent.end(), [](const Entry& x, const Entry& y) {
+        return x.b != y.b ? x.b < y.b : (x.c != y.c ? x.c < y.c : x.face < y.face);
+      });
+      for (size_t j = 0; j < ent.size();) {
+        size_t k = j + 1;
+        while (k < ent.size() && ent[k].b == ent[j].b && ent[k].c == ent[j].c) ++k;
+        if (k - j > 2) { ok.store(false, std::memory_order_relaxed); return; }
+        if (k - j == 2) {
+          m.adj[ent[j].face] = ent[j + 1].face;
+          m.adj[ent[j + 1].face] = ent[j].face;
+        } else {
+          m.adj[ent[j].face] = -1;
+        }
+        j = k;
+      }
+    }
+  });
+  if (!ok.load()) return false;
+  // Both sides must name each other (a tet with a repeated vertex breaks it).
+  const bool sym = detail::parallel_reduce_blocks(
+      static_cast<int64_t>(m.adj.size()), threads, true,
+      [&](int64_t b, int64_t e) {
+        for (int64_t x = b; x < e; ++x) {
+          const int32_t y = m.adj[x];
+          if (y >= 0 && m.adj[y] != x) return false;
+        }
+        return true;
+      },
+      [](bool a, bool c) { return a && c; });
+  return sym;
+}
+
+}  // namespace
+
+Status build_adjacency(TetMesh& m, int threads) {
+  TetMesh stars;  // only its star arrays
+  stars.tets = m.tets;
+  stars.xyz.resize(m.xyz.size());
+  build_vertex_tets(stars);
+  if (!adjacency_from_stars(m, stars.vt_offsets, stars.vt_tets, threads)) return build_adjacency_sorted(m, threads);
+  return check_duplicates(m, threads);
+}
+namespace {
+Status check_duplicates(const TetMesh& m, int threads) {
   // Two tets sharing two faces have the same four vertices: a duplicate.
-  err = detail::parallel_reduce_blocks(
+  const int32_t nt = m.nt();
+  FirstError err = detail::parallel_reduce_blocks(
       nt, threads, FirstError{},
       [&](int64_t b, int64_t e) {
         for (int64_t t = b; t < e; ++t)
@@ -306,33 +390,32 @@ Status build_adjacency(TetMesh& m, int threads) {
       earlier);
   return err.status;
 }
+}  // namespace
 
 void classify(TetMesh& m, int threads) {
   const int32_t nv = m.nv(), nt = m.nt();
   m.face_mask.assign(nt, 0);
   m.vert_constrained.assign(nv, 0);
   m.tet_kind.assign(nt, 0);
-  // Listed triangles are constrained faces: look them up by sorted key.
-  struct Tri { int32_t a, b, c; };
-  std::vector<Tri> tri_sorted;
+  // Listed triangles are constrained faces: mark the face of every tet
+  // holding one, found in the star of its first vertex (a binary search per
+  // interior face was 60% of this function on flange_large).
+  std::vector<uint8_t> listed;
   if (!m.tris.empty()) {
-    tri_sorted.reserve(m.ntri());
+    listed.assign(4 * static_cast<size_t>(nt), 0);
     for (int32_t i = 0; i < m.ntri(); ++i) {
-      int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
-      sort3(a, b, c);
-      tri_sorted.push_back({a, b, c});
+      const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
+      for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
+        const int32_t* v = m.tet(*it);
+        int has = 0, other = -1;
+        for (int k = 0; k < 4; ++k) {
+          if (v[k] == a || v[k] == b || v[k] == c) ++has;
+          else other = k;
+        }
+        if (has == 3 && other >= 0) listed[4 * static_cast<size_t>(*it) + other] = 1;
+      }
     }
-    std::sort(tri_sorted.begin(), tri_sorted.end(), [](const Tri& x, const Tri& y) {
-      return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.c < y.c);
-    });
   }
-  auto is_listed = [&](const int32_t k[3]) {
-    if (tri_sorted.empty()) return false;
-    const Tri key{k[0], k[1], k[2]};
-    return std::binary_search(tri_sorted.begin(), tri_sorted.end(), key, [](const Tri& x, const Tri& y) {
-      return x.a != y.a ? x.a < y.a : (x.b != y.b ? x.b < y.b : x.c < y.c);
-    });
-  };
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
   // Face masks in parallel (each tet writes its own), then the vertices of
   // the constrained faces serially (few, and shared between tets).
@@ -344,11 +427,7 @@ void classify(TetMesh& m, int threads) {
       // Faces between different Gmsh entities are kept too, even inside one
       // region ref: entity boundaries are geometry the user gave.
       bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t] || (has_entity && m.tet_entity[n / 4] != m.tet_entity[t]);
-      if (!c && !tri_sorted.empty()) {
-        int32_t k[3];
-        face_key(m, t, f, k);
-        c = is_listed(k);
-      }
+      if (!c && !listed.empty()) c = listed[4 * static_cast<size_t>(t) + f];
       if (c) mask |= static_cast<uint8_t>(1u << f);
     }
     m.face_mask[t] = mask;
@@ -374,8 +453,12 @@ void classify(TetMesh& m, int threads) {
 }
 
 Status build_topology(TetMesh& m, int threads) {
-  if (Status s = build_adjacency(m, threads); !s) return s;
   build_vertex_tets(m);
+  if (!adjacency_from_stars(m, m.vt_offsets, m.vt_tets, threads)) {
+    if (Status s = build_adjacency_sorted(m, threads); !s) return s;
+  } else if (Status s = check_duplicates(m, threads); !s) {
+    return s;
+  }
   classify(m, threads);
   m.topology_epoch++;
   return Status::success();
@@ -414,7 +497,7 @@ Status validate(const TetMesh& m, ValidateLevel level) {
   copy.xyz = m.xyz;
   copy.tets = m.tets;
   copy.tet_ref = m.tet_ref;
-  if (Status s = build_adjacency(copy); !s) return Status::error(ErrorCode::Invariant, s.message);
+  if (Status s = build_adjacency_sorted(copy); !s) return Status::error(ErrorCode::Invariant, s.message);
   if (copy.adj != m.adj) return Status::error(ErrorCode::Invariant, "stored adjacency differs from a rebuild");
   return Status::success();
 }

@@ -1247,8 +1247,7 @@ void TopoEditor::finish() {
   if (shared_) shared_->swap(alpha_);
   // face_mask and tet_kind were kept right by commit() (new interior faces
   // are free, outer faces keep their bit, vertex flags never change), so
-  // classify() (O(nt) with a binary search per listed-triangle lookup) is not
-  // needed; only the vertex->tet CSR is stale.
+  // classify() is not needed; only the vertex->tet CSR is stale.
   build_vertex_tets(m_);
   m_.topology_epoch++;
   stats_.tets_after = nt;

@@ -141,11 +141,18 @@ void build_vertex_tets(TetMesh& m);
 /// Returns the map old id -> new id (-1 for a dropped vertex) in `map`.
 Status compact_vertices(TetMesh& m, const std::vector<int32_t>& drop, std::vector<int32_t>* map = nullptr);
 
-/// Rebuilds face adjacency; same failure cases as build_topology.
+/// Rebuilds face adjacency; same failure cases as build_topology.  Finds
+/// each face's neighbour in the vertex stars; on any defect it falls back
+/// to build_adjacency_sorted, whose error messages it reports.
 Status build_adjacency(TetMesh& m, int threads = 1);
 
+/// The same adjacency by an independent method (faces bucketed by their
+/// smallest vertex and sorted); validate() compares against it.
+Status build_adjacency_sorted(TetMesh& m, int threads = 1);
+
 /// Recomputes face_mask, vert_constrained and tet_kind from adj, refs and the
-/// listed entities.  Requires adj.
+/// listed entities.  Requires adj and the vertex stars (build_vertex_tets),
+/// as build_topology leaves them.
 void classify(TetMesh& m, int threads = 1);
 
 /// Levels of validate(): Cheap checks sizes and ranges; Full also checks

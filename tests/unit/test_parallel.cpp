@@ -3,8 +3,12 @@
 // of a bad mesh, and a whole improve() run.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
+#include <map>
+#include <numeric>
+#include <set>
 
 #include "detail/parallel.hpp"
 #include "tetopt/conventions.hpp"
@@ -245,4 +249,82 @@ TEST(Parallel, ReaderChecksAreTheSerialOnes) {
   EXPECT_EQ(ra.inverted, rb.inverted);
   EXPECT_EQ(ra.flipped, rb.flipped);
   EXPECT_EQ(a.tets, b.tets);
+}
+
+// build_topology finds face neighbours in the vertex stars and listed
+// triangles through the star of their first vertex; build_adjacency_sorted
+// (a global bucket sort, validate()'s independent rebuild) and a map of
+// sorted face keys here must agree with it, for every thread count, on a
+// shuffled mesh (so stars are not in tet order by construction) with
+// interior listed triangles, two regions and boundary faces.
+TEST(Parallel, StarAdjacencyAndClassifyMatchIndependentMethods) {
+  TetMesh base = jittered_box(2);
+  // Shuffle tets (and their refs) so tet ids are not spatially ordered.
+  const int32_t nt = base.nt();
+  std::vector<int32_t> order(static_cast<size_t>(nt));
+  for (int32_t t = 0; t < nt; ++t) order[t] = static_cast<int32_t>((static_cast<int64_t>(t) * 7919) % nt);
+  ASSERT_EQ(std::gcd(7919, nt), 1);
+  TetMesh sh = base;
+  for (int32_t t = 0; t < nt; ++t) {
+    std::copy(base.tet(order[t]), base.tet(order[t]) + 4, &sh.tets[4 * static_cast<size_t>(t)]);
+    sh.tet_ref[t] = base.tet_ref[order[t]];
+  }
+  // List 300 interior faces (both sides in one region) as triangles.
+  ASSERT_TRUE(build_topology(sh, 1));
+  sh.tris.clear();
+  sh.tri_ref.clear();
+  for (int32_t t = 0; t < nt && sh.ntri() < 300; t += 37)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t n = sh.adj[4 * t + f];
+      if (n >= 0 && sh.tet_ref[n / 4] == sh.tet_ref[t]) {
+        const int32_t* v = sh.tet(t);
+        sh.tris.insert(sh.tris.end(), {v[kFaceVertex[f][2]], v[kFaceVertex[f][0]], v[kFaceVertex[f][1]]});
+        sh.tri_ref.push_back(9);
+        break;
+      }
+    }
+  ASSERT_EQ(sh.ntri(), 300);
+  // Independent reference: every face by sorted key.
+  std::map<std::array<int32_t, 3>, std::vector<int32_t>> faces;
+  for (int32_t t = 0; t < nt; ++t)
+    for (int f = 0; f < 4; ++f) {
+      std::array<int32_t, 3> k{};
+      face_key(sh, t, f, k.data());
+      faces[k].push_back(4 * t + f);
+    }
+  std::set<std::array<int32_t, 3>> listed;
+  for (int32_t i = 0; i < sh.ntri(); ++i) {
+    std::array<int32_t, 3> k{sh.tris[3 * i], sh.tris[3 * i + 1], sh.tris[3 * i + 2]};
+    std::sort(k.begin(), k.end());
+    listed.insert(k);
+  }
+  std::vector<int32_t> adj_ref(4 * static_cast<size_t>(nt), -1);
+  std::vector<uint8_t> mask_ref(static_cast<size_t>(nt), 0);
+  int64_t listed_faces = 0;
+  for (const auto& [k, fs] : faces) {
+    ASSERT_LE(fs.size(), 2u);
+    if (fs.size() == 2) { adj_ref[fs[0]] = fs[1]; adj_ref[fs[1]] = fs[0]; }
+    const bool is_listed = listed.count(k) > 0;
+    listed_faces += is_listed ? static_cast<int64_t>(fs.size()) : 0;
+    for (int32_t x : fs) {
+      const int32_t n = fs.size() == 2 ? (fs[0] == x ? fs[1] : fs[0]) : -1;
+      if (n < 0 || sh.tet_ref[n / 4] != sh.tet_ref[x / 4] || is_listed) mask_ref[x / 4] |= static_cast<uint8_t>(1u << (x % 4));
+    }
+  }
+  EXPECT_EQ(listed_faces, 600);  // every listed triangle is an interior face
+  TetMesh sorted = sh;
+  ASSERT_TRUE(build_adjacency_sorted(sorted, 1));
+  EXPECT_EQ(sorted.adj, adj_ref);
+  for (int threads : {1, 2, 3}) {
+    TetMesh m = sh;
+    ASSERT_TRUE(build_topology(m, threads));
+    EXPECT_EQ(m.adj, adj_ref) << threads << " threads";
+    EXPECT_EQ(m.face_mask, mask_ref) << threads << " threads";
+    for (int32_t v = 0; v < m.nv(); ++v)  // stars in increasing tet order
+      ASSERT_TRUE(std::is_sorted(m.star_begin(v), m.star_end(v)));
+    TetMesh a = sh;
+    ASSERT_TRUE(build_adjacency(a, threads));
+    EXPECT_EQ(a.adj, adj_ref) << threads << " threads";
+    EXPECT_TRUE(validate(m, ValidateLevel::Full)) << threads << " threads";
+  }
 }
