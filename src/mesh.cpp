@@ -305,8 +305,13 @@ namespace {
 // on anything a valid mesh cannot have (a face in three or more tets, or a
 // one-sided link); the caller then runs build_adjacency_sorted, which finds
 // the same links and reports the first defect in its own order.
-bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std::vector<int32_t>& vt, int threads) {
-  const int32_t nt = m.nt(), nv = static_cast<int32_t>(off.size()) - 1;
+// only: when not null, the buckets of these vertices alone are rebuilt (the
+// other entries of adj are left as they are), and only the links they set
+// are checked for symmetry.
+bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std::vector<int32_t>& vt, int threads,
+                          const std::vector<int32_t>* only = nullptr) {
+  const int32_t nt = m.nt();
+  const int32_t nv = only ? static_cast<int32_t>(only->size()) : static_cast<int32_t>(off.size()) - 1;
   m.adj.resize(4 * static_cast<size_t>(nt));
   std::atomic<bool> ok{true};
   struct Entry {
@@ -315,7 +320,7 @@ bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std
   detail::parallel_blocks(nv, threads, [&](int64_t vb, int64_t ve) {
     std::vector<Entry> ent;
     for (int64_t vi = vb; vi < ve; ++vi) {
-      const auto v = static_cast<int32_t>(vi);
+      const auto v = only ? (*only)[static_cast<size_t>(vi)] : static_cast<int32_t>(vi);
       ent.clear();
       for (int32_t i = off[v]; i < off[v + 1]; ++i) {
         const int32_t t = vt[i];
@@ -460,6 +465,70 @@ Status build_topology(TetMesh& m, int threads) {
     return s;
   }
   classify(m, threads);
+  m.topology_epoch++;
+  return Status::success();
+}
+
+Status refresh_topology(TetMesh& m, int32_t first_new, int threads) {
+  const int32_t nv = m.nv(), nt = m.nt();
+  if (first_new < 0 || first_new > nt || m.adj.size() < 4 * static_cast<size_t>(first_new) ||
+      m.face_mask.size() < static_cast<size_t>(first_new) || m.tet_kind.size() < static_cast<size_t>(first_new) ||
+      m.vert_constrained.size() > static_cast<size_t>(nv))
+    return Status::error(ErrorCode::Invariant, "refresh_topology: the kept tets' topology is not built");
+  if (first_new == 0) return build_topology(m, threads);
+  m.adj.resize(4 * static_cast<size_t>(nt));
+  std::fill(m.adj.begin() + 4 * static_cast<ptrdiff_t>(first_new), m.adj.end(), -1);
+  build_vertex_tets(m);
+  // Every face that changed has all three vertices on new tets: faces of the
+  // new tets, and faces of kept tets that the replaced tets shared (they are
+  // faces of new tets again when the replacement conforms).  Their buckets
+  // are rebuilt; the kept tets' other links stay.
+  std::vector<uint8_t> touched(static_cast<size_t>(nv), 0);
+  for (size_t i = 4 * static_cast<size_t>(first_new); i < m.tets.size(); ++i) touched[m.tets[i]] = 1;
+  std::vector<int32_t> only;
+  for (int32_t v = 0; v < nv; ++v)
+    if (touched[v]) only.push_back(v);
+  if (!adjacency_from_stars(m, m.vt_offsets, m.vt_tets, threads, &only)) return build_topology(m, threads);
+  if (Status s = check_duplicates(m, threads); !s) return s;
+  // Classification: the kept tets keep theirs (their faces and the refs
+  // across them are unchanged); vertices added with the new tets are free.
+  m.vert_constrained.resize(static_cast<size_t>(nv), 0);
+  m.face_mask.resize(static_cast<size_t>(nt));
+  m.tet_kind.resize(static_cast<size_t>(nt));
+  const size_t nnew = static_cast<size_t>(nt - first_new);
+  std::vector<uint8_t> listed;
+  if (!m.tris.empty()) {
+    listed.assign(4 * nnew, 0);
+    for (int32_t i = 0; i < m.ntri(); ++i) {
+      const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
+      if (!touched[a] || !touched[b] || !touched[c]) continue;
+      for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
+        if (*it < first_new) continue;
+        const int32_t* v = m.tet(*it);
+        int has = 0, other = -1;
+        for (int k = 0; k < 4; ++k) {
+          if (v[k] == a || v[k] == b || v[k] == c) ++has;
+          else other = k;
+        }
+        if (has == 3 && other >= 0) listed[4 * static_cast<size_t>(*it - first_new) + other] = 1;
+      }
+    }
+  }
+  const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
+  detail::parallel_for_each(static_cast<int64_t>(nnew), threads, [&](int64_t i) {
+    const auto t = static_cast<int32_t>(first_new + i);
+    uint8_t mask = 0;
+    for (int f = 0; f < 4; ++f) {
+      const int32_t n = m.adj[4 * static_cast<size_t>(t) + f];
+      bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t] || (has_entity && m.tet_entity[n / 4] != m.tet_entity[t]);
+      if (!c && !listed.empty()) c = listed[4 * static_cast<size_t>(i) + f];
+      if (c) mask |= static_cast<uint8_t>(1u << f);
+    }
+    m.face_mask[t] = mask;
+    const int32_t* v = m.tet(t);
+    m.tet_kind[t] = static_cast<uint8_t>(m.vert_constrained[v[0]] + m.vert_constrained[v[1]] +
+                                         m.vert_constrained[v[2]] + m.vert_constrained[v[3]]);
+  });
   m.topology_epoch++;
   return Status::success();
 }

@@ -34,6 +34,7 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
   adjncy.reserve(4 * static_cast<size_t>(nt));
   adjwgt.reserve(4 * static_cast<size_t>(nt));
   const std::vector<uint8_t>* avoid = opt.avoid && opt.avoid->size() == static_cast<size_t>(g.nv()) ? opt.avoid : nullptr;
+  const bool have_alpha = opt.alpha && opt.alpha->size() == static_cast<size_t>(ntg);
   for (int32_t i = 0; i < nt; ++i) {
     const int32_t t = tet_of[i];
     const int32_t* tv = g.tet(t);
@@ -58,7 +59,7 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
     }
     xadj[i + 1] = static_cast<idx_t>(adjncy.size());
     // Work balance: poor tets cost the optimiser more than good ones.
-    vwgt[i] = tet_alpha(g, t) < opt.threshold ? 4 : 1;
+    vwgt[i] = (have_alpha ? (*opt.alpha)[t] : tet_alpha(g, t)) < opt.threshold ? 4 : 1;
   }
   idx_t nvtxs = nt, ncon = 1, nparts = opt.parts, objval = 0;
   idx_t options[METIS_NOPTIONS];
@@ -266,12 +267,27 @@ Status merge_parts(TetMesh& g, const std::vector<int32_t>& part, const std::vect
   ref.reserve(total / 4);
   if (has_entity) ent.reserve(total / 4);
   // The kept tets first, unchanged (their vertices are required in every
-  // part that shares them, so they do not move).
+  // part that shares them, so they do not move), with their topology: links
+  // between kept tets renumbered, -1 where an improved tet was across
+  // (refresh_topology then rebuilds only around the improved tets).
+  std::vector<int32_t> newid(static_cast<size_t>(g.nt()), -1);
+  int32_t nkept = 0;
+  for (int32_t t = 0; t < g.nt(); ++t)
+    if (part[t] == kept_id) newid[t] = nkept++;
+  std::vector<int32_t> kadj(4 * static_cast<size_t>(nkept));
+  std::vector<uint8_t> kmask(static_cast<size_t>(nkept)), kkind(static_cast<size_t>(nkept));
   for (int32_t t = 0; t < g.nt(); ++t) {
     if (part[t] != kept_id) continue;
+    const int32_t k = newid[t];
     tets.insert(tets.end(), g.tet(t), g.tet(t) + 4);
     ref.push_back(g.tet_ref[t]);
     if (has_entity) ent.push_back(g.tet_entity[t]);
+    for (int f = 0; f < 4; ++f) {
+      const int32_t a = g.adj[4 * static_cast<size_t>(t) + f];
+      kadj[4 * static_cast<size_t>(k) + f] = a >= 0 && newid[a >> 2] >= 0 ? 4 * newid[a >> 2] + (a & 3) : -1;
+    }
+    kmask[k] = g.face_mask[t];
+    kkind[k] = g.tet_kind[t];
   }
   std::vector<int32_t> lg;
   for (size_t p = 0; p < plans.size(); ++p) {
@@ -311,7 +327,11 @@ Status merge_parts(TetMesh& g, const std::vector<int32_t>& part, const std::vect
   g.tets = std::move(tets);
   g.tet_ref = std::move(ref);
   if (has_entity) g.tet_entity = std::move(ent);
-  return build_topology(g, threads);
+  if (nkept == 0) return build_topology(g, threads);
+  g.adj = std::move(kadj);
+  g.face_mask = std::move(kmask);
+  g.tet_kind = std::move(kkind);
+  return refresh_topology(g, nkept, threads);
 }
 
 std::vector<uint8_t> dilate(const TetMesh& g, std::vector<uint8_t> seed) {

@@ -72,6 +72,8 @@ struct PartitionOptions {
   /// Per tet (nullptr: all): only these are partitioned and improved; the
   /// others form group `parts`, kept unchanged by rank 0.
   const std::vector<uint8_t>* active = nullptr;
+  /// Per tet (nullptr: computed here): alpha, for the work weights.
+  const std::vector<double>* alpha = nullptr;
 };
 
 /// Part id (0..parts-1, or parts for an inactive tet) of every tet of g

@@ -452,6 +452,7 @@ int leader(const Args& a, int size) {
     po.threshold = gamma;
     po.avoid = avoid.empty() ? nullptr : &avoid;
     po.active = active.empty() ? nullptr : &active;
+    po.alpha = &al;
     std::string err;
     std::vector<int32_t> part = partition_tets(g, po, err);
     if (part.empty()) { failure = err; exit_code = kExitInput; break; }

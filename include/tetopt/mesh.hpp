@@ -129,6 +129,18 @@ OrientationReport normalize_orientation(TetMesh& m, int threads = 1);
 /// reported, the first in serial order) is the same for every count.
 Status build_topology(TetMesh& m, int threads = 1);
 
+/// build_topology after the tets from `first_new` on were replaced by others
+/// that fit the kept ones: the faces between kept and replaced tets are faces
+/// of the new tets, and the constrained faces and vertices are those of
+/// before.  Before the call, for the tets before first_new (their vertex ids
+/// and order unchanged): adj links them to each other and is -1 where a
+/// replaced tet was across; face_mask, tet_kind as built; vert_constrained
+/// for the old vertices (new ones may be appended, free).  Rebuilds the
+/// vertex->tet CSR and the adjacency buckets of the new tets' vertices only,
+/// classifies the new tets, and leaves the rest.  The result is the one
+/// build_topology gives (falls back to it when the links do not close up).
+Status refresh_topology(TetMesh& m, int32_t first_new, int threads = 1);
+
 /// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date).
 void build_vertex_tets(TetMesh& m);
 

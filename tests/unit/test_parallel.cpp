@@ -328,3 +328,96 @@ TEST(Parallel, StarAdjacencyAndClassifyMatchIndependentMethods) {
     EXPECT_TRUE(validate(m, ValidateLevel::Full)) << threads << " threads";
   }
 }
+
+// refresh_topology (tetopt-mpi's merge of later rounds): the tets inside a
+// ball are replaced by the same tets in another order with their vertices
+// rotated (an even permutation), the kept tets carry their links; the
+// result must be build_topology's, array for array, for every thread count,
+// with listed interior triangles and two regions.
+TEST(Parallel, RefreshTopologyEqualsAFullRebuild) {
+  TetMesh g = jittered_box(2);
+  ASSERT_TRUE(build_topology(g, 1));
+  // List some interior faces, inside and outside the ball, as triangles.
+  for (int32_t t = 0; t < g.nt(); t += 13)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t n = g.adj[4 * t + f];
+      if (n >= 0 && g.tet_ref[n / 4] == g.tet_ref[t]) {
+        const int32_t* v = g.tet(t);
+        g.tris.insert(g.tris.end(), {v[kFaceVertex[f][0]], v[kFaceVertex[f][1]], v[kFaceVertex[f][2]]});
+        g.tri_ref.push_back(5);
+        break;
+      }
+    }
+  ASSERT_TRUE(build_topology(g, 1));
+  const int32_t nt = g.nt();
+  std::vector<uint8_t> replaced(static_cast<size_t>(nt), 0);
+  int32_t nrep = 0;
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (int32_t v = 0; v < g.nv(); ++v)
+    for (int d = 0; d < 3; ++d) { lo[d] = std::min(lo[d], g.point(v)[d]); hi[d] = std::max(hi[d], g.point(v)[d]); }
+  for (int32_t t = 0; t < nt; ++t) {
+    double c[3] = {0, 0, 0};  // centroid in the box's unit coordinates
+    for (int k = 0; k < 4; ++k)
+      for (int d = 0; d < 3; ++d) c[d] += (g.point(g.tet(t)[k])[d] - lo[d]) / (hi[d] - lo[d]) / 4;
+    const double r2 = (c[0] - 0.5) * (c[0] - 0.5) + (c[1] - 0.4) * (c[1] - 0.4) + (c[2] - 0.5) * (c[2] - 0.5);
+    if (r2 < 0.09) { replaced[t] = 1; ++nrep; }
+  }
+  ASSERT_GT(nrep, 1000);
+  ASSERT_LT(nrep, nt - 1000);
+  int64_t listed_on_replaced = 0;  // listed faces with a replaced tet on a side
+  for (int32_t t = 0; t < nt; ++t)
+    if (replaced[t])
+      for (int f = 0; f < 4; ++f)
+        if (g.face_mask[t] & (1u << f)) listed_on_replaced += g.adj[4 * t + f] >= 0 && g.tet_ref[g.adj[4 * t + f] / 4] == g.tet_ref[t];
+  ASSERT_GT(listed_on_replaced, 20);
+  TetMesh m = g;
+  m.tets.clear();
+  m.tet_ref.clear();
+  std::vector<int32_t> newid(static_cast<size_t>(nt), -1);
+  int32_t nkept = 0;
+  for (int32_t t = 0; t < nt; ++t)
+    if (!replaced[t]) newid[t] = nkept++;
+  m.adj.assign(4 * static_cast<size_t>(nkept), -1);
+  m.face_mask.assign(static_cast<size_t>(nkept), 0);
+  m.tet_kind.assign(static_cast<size_t>(nkept), 0);
+  for (int32_t t = 0; t < nt; ++t) {
+    if (replaced[t]) continue;
+    m.tets.insert(m.tets.end(), g.tet(t), g.tet(t) + 4);
+    m.tet_ref.push_back(g.tet_ref[t]);
+    for (int f = 0; f < 4; ++f) {
+      const int32_t a = g.adj[4 * t + f];
+      m.adj[4 * static_cast<size_t>(newid[t]) + f] = a >= 0 && newid[a / 4] >= 0 ? 4 * newid[a / 4] + a % 4 : -1;
+    }
+    m.face_mask[newid[t]] = g.face_mask[t];
+    m.tet_kind[newid[t]] = g.tet_kind[t];
+  }
+  for (int32_t t = nt - 1; t >= 0; --t) {  // replaced tets, reversed, (a,b,c,d) -> (b,c,a,d)
+    if (!replaced[t]) continue;
+    const int32_t* v = g.tet(t);
+    m.tets.insert(m.tets.end(), {v[1], v[2], v[0], v[3]});
+    m.tet_ref.push_back(g.tet_ref[t]);
+  }
+  TetMesh full = m;
+  ASSERT_TRUE(build_topology(full, 1));
+  for (int threads : {1, 2, 3}) {
+    TetMesh r = m;
+    const uint64_t epoch = r.topology_epoch;
+    ASSERT_TRUE(refresh_topology(r, nkept, threads));
+    EXPECT_EQ(r.adj, full.adj) << threads;
+    EXPECT_EQ(r.face_mask, full.face_mask) << threads;
+    EXPECT_EQ(r.tet_kind, full.tet_kind) << threads;
+    EXPECT_EQ(r.vert_constrained, full.vert_constrained) << threads;
+    EXPECT_EQ(r.vt_offsets, full.vt_offsets) << threads;
+    EXPECT_EQ(r.vt_tets, full.vt_tets) << threads;
+    EXPECT_NE(r.topology_epoch, epoch);
+    EXPECT_TRUE(validate(r, ValidateLevel::Full));
+  }
+  // A kept link that does not close up (one-sided) falls back to the full
+  // rebuild, with the same result.
+  TetMesh bad = m;
+  for (size_t x = 0; x < bad.adj.size(); ++x)
+    if (bad.adj[x] >= 0) { bad.adj[x] = -1; break; }
+  ASSERT_TRUE(refresh_topology(bad, nkept, 2));
+  EXPECT_EQ(bad.adj, full.adj);
+  EXPECT_EQ(bad.face_mask, full.face_mask);
+}
