@@ -469,6 +469,68 @@ Status build_topology(TetMesh& m, int threads) {
   return Status::success();
 }
 
+namespace {
+// The bits of a 21-bit integer spread three apart (Morton interleaving).
+uint64_t spread3(uint64_t x) {
+  x &= 0x1fffff;
+  x = (x | x << 32) & 0x1f00000000ffffULL;
+  x = (x | x << 16) & 0x1f0000ff0000ffULL;
+  x = (x | x << 8) & 0x100f00f00f00f00fULL;
+  x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+  x = (x | x << 2) & 0x1249249249249249ULL;
+  return x;
+}
+}  // namespace
+
+void sort_tets_spatially(TetMesh& m, int threads) {
+  const int32_t nt = m.nt();
+  if (nt < 2) return;
+  double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  std::numeric_limits<double>::infinity()};
+  double hi[3] = {-lo[0], -lo[1], -lo[2]};
+  for (int32_t v = 0; v < m.nv(); ++v)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], m.point(v)[d]);
+      hi[d] = std::max(hi[d], m.point(v)[d]);
+    }
+  // Key: the Morton code of the centroid on a 2^21 grid per axis, then the
+  // old index (a total order: the same permutation for every thread count).
+  std::vector<std::pair<uint64_t, int32_t>> key(static_cast<size_t>(nt));
+  detail::parallel_for_each(nt, threads, [&](int64_t ti) {
+    const auto t = static_cast<int32_t>(ti);
+    const int32_t* v = m.tet(t);
+    uint64_t code = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double c = (m.point(v[0])[d] + m.point(v[1])[d] + m.point(v[2])[d] + m.point(v[3])[d]) / 4;
+      const double span = hi[d] - lo[d];
+      double q = span > 0 ? (c - lo[d]) / span * 2097151.0 : 0.0;
+      q = std::min(std::max(q, 0.0), 2097151.0);
+      code |= spread3(static_cast<uint64_t>(q)) << d;
+    }
+    key[static_cast<size_t>(t)] = {code, t};
+  });
+  std::sort(key.begin(), key.end());
+  std::vector<int32_t> tets(m.tets.size()), ref(static_cast<size_t>(nt));
+  const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
+  std::vector<int32_t> ent(has_entity ? static_cast<size_t>(nt) : 0);
+  for (int32_t i = 0; i < nt; ++i) {
+    const int32_t t = key[static_cast<size_t>(i)].second;
+    std::copy(m.tet(t), m.tet(t) + 4, &tets[4 * static_cast<size_t>(i)]);
+    ref[static_cast<size_t>(i)] = m.tet_ref[static_cast<size_t>(t)];
+    if (has_entity) ent[static_cast<size_t>(i)] = m.tet_entity[static_cast<size_t>(t)];
+  }
+  m.tets = std::move(tets);
+  m.tet_ref = std::move(ref);
+  if (has_entity) m.tet_entity = std::move(ent);
+  // Whatever topology was built refers to the old tet numbers.
+  m.adj.clear();
+  m.vt_offsets.clear();
+  m.vt_tets.clear();
+  m.face_mask.clear();
+  m.tet_kind.clear();
+  m.topology_epoch++;
+}
+
 Status refresh_topology(TetMesh& m, int32_t first_new, int threads) {
   const int32_t nv = m.nv(), nt = m.nt();
   if (first_new < 0 || first_new > nt || m.adj.size() < 4 * static_cast<size_t>(first_new) ||

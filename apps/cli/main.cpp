@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "cli.hpp"
+#include "hugepages.hpp"
 
 namespace {
 
@@ -46,6 +47,7 @@ const char* kMainHelp =
 }  // namespace
 
 int main(int argc, char** argv) {
+  tetopt_cli::reexec_with_huge_pages(argv);
   std::signal(SIGINT, tetopt_cli::on_sigint);
   if (argc < 2) {
     std::fputs(kMainHelp, stderr);

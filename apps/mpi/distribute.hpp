@@ -74,12 +74,20 @@ struct PartitionOptions {
   const std::vector<uint8_t>* active = nullptr;
   /// Per tet (nullptr: computed here): alpha, for the work weights.
   const std::vector<double>* alpha = nullptr;
+  int threads = 1;  ///< for building the graph (0: all cores); same result for any
+  /// Above this many active tets the dual graph is contracted by groups of
+  /// tets with the same smallest vertex before METIS (faster, a more ragged
+  /// cut); at or below, METIS gets the dual graph itself.
+  int64_t contract_above = 250000;
+
 };
 
 /// Part id (0..parts-1, or parts for an inactive tet) of every tet of g
 /// (topology built), from METIS (METIS_PartGraphKway on the dual graph of the
-/// active tets).  Returns an empty vector and sets err when METIS fails.
-std::vector<int32_t> partition_tets(const tetopt::TetMesh& g, const PartitionOptions& opt, std::string& err);
+/// active tets, or on its contraction, see PartitionOptions::contract_above).  Returns an empty vector and sets err when METIS fails.
+/// contracted (optional): set to whether METIS got the contracted graph.
+std::vector<int32_t> partition_tets(const tetopt::TetMesh& g, const PartitionOptions& opt, std::string& err,
+                                    bool* contracted = nullptr);
 
 /// Moves the tets within two vertex layers of each seed tet (in the given
 /// order; earlier seeds win) into the seed's part, so no cut passes through

@@ -141,6 +141,15 @@ Status build_topology(TetMesh& m, int threads = 1);
 /// build_topology gives (falls back to it when the links do not close up).
 Status refresh_topology(TetMesh& m, int32_t first_new, int threads = 1);
 
+/// Reorders the tets (with tet_ref and tet_entity) along a Morton curve of
+/// their centroids, so that tets near in space are near in memory; vertex
+/// ids do not change.  The topology arrays are cleared (call build_topology
+/// after).  On a mesh whose tets come in no spatial order this makes the
+/// star walks of the optimiser hit the cache (flange_large, 2.0M tets:
+/// improve 8.3 s -> 6.1-6.7 s at 1 thread); the result differs, as the order
+/// of the passes does.  Same permutation for every thread count.
+void sort_tets_spatially(TetMesh& m, int threads = 1);
+
 /// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date).
 void build_vertex_tets(TetMesh& m);
 

@@ -43,4 +43,15 @@ check "output meshes of the reported runs identical" 'cmp -s "$W/r1.mesh" "$W/r2
 "$T" generate "$W/big.meshb" --cells 16 16 16 --jitter 0.4 --regions 2 --seed 5 > /dev/null  # 24,576 tets: 3 blocks
 "$T" quality "$W/big.meshb" --json --threads 1 > "$W/q1.json"; "$T" quality "$W/big.meshb" --json --threads 3 > "$W/q3.json"
 check "quality --threads 1 and 3 agree apart from timings" '[ -s "$W/q1.json" ] && [ "$(strip "$W/q1.json")" = "$(strip "$W/q3.json")" ]'
+# The start-up re-execution with glibc's huge-page tunable (apps/cli/hugepages.hpp)
+# changes speed only: the same bytes with it switched off, and with the
+# tunable set by the caller (no re-execution).
+TETOPT_NO_HUGEPAGES=1 "$T" improve "$W/big.meshb" -o "$W/h0.mesh" -q
+"$T" improve "$W/big.meshb" -o "$W/h1.mesh" -q
+GLIBC_TUNABLES=glibc.malloc.hugetlb=1 "$T" improve "$W/big.meshb" -o "$W/h2.mesh" -q
+check "huge pages on, off or set by the caller: identical output" 'cmp -s "$W/h0.mesh" "$W/h1.mesh" && cmp -s "$W/h0.mesh" "$W/h2.mesh"'
+# The re-executed process sees the tunable (where THP is in madvise mode),
+# and arguments survive the re-execution (a bad option is still reported).
+"$T" improve "$W/big.meshb" -o "$W/h3.mesh" --threshold 7 2> "$W/h3.err"; rc=$?
+check "re-executed: usage error still reported (exit 1)" '[ $rc -eq 1 ] && grep -q threshold "$W/h3.err"'
 exit $fail

@@ -421,3 +421,55 @@ TEST(Parallel, RefreshTopologyEqualsAFullRebuild) {
   EXPECT_EQ(bad.adj, full.adj);
   EXPECT_EQ(bad.face_mask, full.face_mask);
 }
+
+// sort_tets_spatially permutes the tets with their refs and entities (a
+// multiset check), keeps vertex ids and coordinates, gives the same order
+// for every thread count, clears the stale topology, and puts tets near in
+// space near in memory (mean centroid distance of consecutive tets drops
+// on a shuffled box).
+TEST(Parallel, SortTetsSpatiallyIsAPermutationTowardsLocality) {
+  TetMesh base = jittered_box(2);
+  const int32_t nt = base.nt();
+  base.tet_entity.resize(static_cast<size_t>(nt));
+  for (int32_t t = 0; t < nt; ++t) base.tet_entity[t] = t % 7;
+  TetMesh sh = base;  // shuffled: tet t takes base tet (t * 7919) mod nt
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t s = static_cast<int32_t>((static_cast<int64_t>(t) * 7919) % nt);
+    std::copy(base.tet(s), base.tet(s) + 4, &sh.tets[4 * static_cast<size_t>(t)]);
+    sh.tet_ref[t] = base.tet_ref[s];
+    sh.tet_entity[t] = base.tet_entity[s];
+  }
+  auto records = [](const TetMesh& m) {
+    std::vector<std::array<int32_t, 6>> r;
+    for (int32_t t = 0; t < m.nt(); ++t)
+      r.push_back({m.tet(t)[0], m.tet(t)[1], m.tet(t)[2], m.tet(t)[3], m.tet_ref[t], m.tet_entity[t]});
+    std::sort(r.begin(), r.end());
+    return r;
+  };
+  auto spread = [](const TetMesh& m) {  // mean distance between consecutive centroids
+    double sum = 0, prev[3] = {0, 0, 0};
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      double c[3] = {0, 0, 0};
+      for (int k = 0; k < 4; ++k)
+        for (int d = 0; d < 3; ++d) c[d] += m.point(m.tet(t)[k])[d] / 4;
+      if (t > 0) sum += std::sqrt((c[0] - prev[0]) * (c[0] - prev[0]) + (c[1] - prev[1]) * (c[1] - prev[1]) +
+                                  (c[2] - prev[2]) * (c[2] - prev[2]));
+      std::copy(c, c + 3, prev);
+    }
+    return sum / (m.nt() - 1);
+  };
+  ASSERT_TRUE(build_topology(sh, 1));
+  std::vector<int32_t> first;
+  for (int threads : {1, 2, 3}) {
+    TetMesh m = sh;
+    sort_tets_spatially(m, threads);
+    EXPECT_EQ(records(m), records(sh));
+    EXPECT_EQ(m.xyz, sh.xyz);
+    EXPECT_TRUE(m.adj.empty() && m.vt_tets.empty() && m.face_mask.empty());
+    if (first.empty()) first = m.tets;
+    EXPECT_EQ(m.tets, first) << threads << " threads";
+    EXPECT_LT(spread(m), spread(sh) / 4);
+    ASSERT_TRUE(build_topology(m, threads));
+    EXPECT_TRUE(validate(m, ValidateLevel::Full));
+  }
+}
