@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# MPI benchmark (issue 11): single-process tetopt improve beside tetopt-mpi on
+# MPI benchmark (issue 11): single-process tetopt improve (1 thread and one
+# thread per core) beside tetopt-mpi on
 # 1, 2 and 4 ranks, on flange_large (../shared/meshes, 2.0M tets) or a mesh
 # given on the command line.  Prints one table (end-to-end time, worst and
 # mean alpha, rounds, per-phase seconds summed over rounds, bytes sent) and
-# keeps the JSON reports in OUTDIR.
+# keeps the JSON reports in OUTDIR.  Ranks are not bound to cores (Open MPI
+# binds one core per rank for -np <= 2, which would keep rank 0's lone
+# phases -- read, partition, merge, write -- on one core).
 #
 # usage: bench/mpi_bench.sh [BUILD_DIR] [MESH] [OUTDIR] [RANKS...]
 #   BUILD_DIR  holds tetopt and tetopt-mpi (default: build)
@@ -31,23 +34,31 @@ esac
 ext=${IN##*.}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 echo "mesh $IN; $(nproc) cores; results in $OUT"
+# The single process at 1 thread and at every core (the issue compares the
+# distributed run with the shared-memory one at equal core count).
+NC=$(nproc)
 /usr/bin/time -f "%e s wall, %M KB max RSS" -o "$OUT/single.time" \
   "$T" improve "$IN" -o "$OUT/single.$ext" --report "$OUT/single.json" -q || { echo "single run failed"; exit 1; }
+/usr/bin/time -f "%e s wall, %M KB max RSS" -o "$OUT/singlet.time" \
+  "$T" improve "$IN" -o "$OUT/singlet.$ext" --threads "$NC" --report "$OUT/singlet.json" -q || { echo "single run failed"; exit 1; }
 for k in $RANKS; do
   /usr/bin/time -f "%e s wall, %M KB max RSS (mpirun)" -o "$OUT/mpi$k.time" \
-    mpirun --oversubscribe -np "$k" "$M" improve "$IN" -o "$OUT/mpi$k.$ext" --report "$OUT/mpi$k.json" -q \
+    mpirun --bind-to none --oversubscribe -np "$k" "$M" improve "$IN" -o "$OUT/mpi$k.$ext" --report "$OUT/mpi$k.json" -q \
     || { echo "tetopt-mpi -np $k failed"; exit 1; }
 done
-/usr/bin/python3 - "$OUT" $RANKS <<'EOF'
+/usr/bin/python3 - "$OUT" "$NC" $RANKS <<'EOF'
 import json, sys
-out, ranks = sys.argv[1], sys.argv[2:]
+out, nc, ranks = sys.argv[1], sys.argv[2], sys.argv[3:]
 s = json.load(open(f"{out}/single.json"))
+st = json.load(open(f"{out}/singlet.json"))
 wall = lambda n: open(f"{out}/{n}.time").read().split()[0]
 print(f"{'run':<10} {'wall s':>8} {'e2e s':>8} {'worst a':>8} {'mean a':>7} {'tets out':>9} {'rounds':>6} "
       f"{'part s':>7} {'extr s':>7} {'scat s':>7} {'impr max':>8} {'impr sum':>8} {'g.wait':>7} {'g.xfer':>7} "
       f"{'merge s':>7} {'MB sent':>8} {'MB back':>8}")
-print(f"{'tetopt':<10} {wall('single'):>8} {s['seconds_end_to_end']:8.2f} {s['after']['alpha_worst']:8.4f} "
+print(f"{'tetopt t1':<10} {wall('single'):>8} {s['seconds_end_to_end']:8.2f} {s['after']['alpha_worst']:8.4f} "
       f"{s['after']['alpha_mean']:7.4f} {s['after']['tets']:9d}")
+print(f"{'tetopt t' + nc:<10} {wall('singlet'):>8} {st['seconds_end_to_end']:8.2f} {st['after']['alpha_worst']:8.4f} "
+      f"{st['after']['alpha_mean']:7.4f} {st['after']['tets']:9d}")
 for k in ranks:
     r = json.load(open(f"{out}/mpi{k}.json"))
     tot = lambda key: sum(x['seconds'][key] for x in r['rounds'])
