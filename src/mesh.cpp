@@ -211,6 +211,44 @@ struct FirstError {
 FirstError earlier(const FirstError& a, const FirstError& b) { return b.at < a.at ? b : a; }
 // Two tets sharing two faces have the same four vertices: a duplicate.
 Status check_duplicates(const TetMesh& m, int threads);
+// Per face of the tets from first_tet on (4 entries per tet, in order), 1 if
+// it is a listed triangle: each triangle is looked up in the star of its
+// first vertex (stars must be built).  touched (optional, per vertex): skip
+// triangles with a vertex outside it.  Empty when the mesh lists none.
+std::vector<uint8_t> listed_faces(const TetMesh& m, int32_t first_tet, const std::vector<uint8_t>* touched) {
+  std::vector<uint8_t> listed;
+  if (m.tris.empty()) return listed;
+  listed.assign(4 * static_cast<size_t>(m.nt() - first_tet), 0);
+  for (int32_t i = 0; i < m.ntri(); ++i) {
+    const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
+    if (touched && (!(*touched)[a] || !(*touched)[b] || !(*touched)[c])) continue;
+    for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
+      if (*it < first_tet) continue;
+      const int32_t* v = m.tet(*it);
+      int has = 0, other = -1;
+      for (int k = 0; k < 4; ++k) {
+        if (v[k] == a || v[k] == b || v[k] == c) ++has;
+        else other = k;
+      }
+      if (has == 3 && other >= 0) listed[4 * static_cast<size_t>(*it - first_tet) + other] = 1;
+    }
+  }
+  return listed;
+}
+// face_mask of tet t: bit f set when face f is on the boundary, between two
+// region refs or two Gmsh entities (entity boundaries are geometry the user
+// gave, even inside one region), or a listed triangle (listed4: the tet's
+// four flags from listed_faces, or null).
+uint8_t constrained_faces(const TetMesh& m, int32_t t, bool has_entity, const uint8_t* listed4) {
+  uint8_t mask = 0;
+  for (int f = 0; f < 4; ++f) {
+    const int32_t n = m.adj[4 * static_cast<size_t>(t) + f];
+    bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t] || (has_entity && m.tet_entity[n / 4] != m.tet_entity[t]);
+    if (!c && listed4) c = listed4[f] != 0;
+    if (c) mask |= static_cast<uint8_t>(1u << f);
+  }
+  return mask;
+}
 }  // namespace
 
 Status build_adjacency_sorted(TetMesh& m, int threads) {
@@ -405,37 +443,13 @@ void classify(TetMesh& m, int threads) {
   // Listed triangles are constrained faces: mark the face of every tet
   // holding one, found in the star of its first vertex (a binary search per
   // interior face was 60% of this function on flange_large).
-  std::vector<uint8_t> listed;
-  if (!m.tris.empty()) {
-    listed.assign(4 * static_cast<size_t>(nt), 0);
-    for (int32_t i = 0; i < m.ntri(); ++i) {
-      const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
-      for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
-        const int32_t* v = m.tet(*it);
-        int has = 0, other = -1;
-        for (int k = 0; k < 4; ++k) {
-          if (v[k] == a || v[k] == b || v[k] == c) ++has;
-          else other = k;
-        }
-        if (has == 3 && other >= 0) listed[4 * static_cast<size_t>(*it) + other] = 1;
-      }
-    }
-  }
+  const std::vector<uint8_t> listed = listed_faces(m, 0, nullptr);
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
   // Face masks in parallel (each tet writes its own), then the vertices of
   // the constrained faces serially (few, and shared between tets).
   detail::parallel_for_each(nt, threads, [&](int64_t ti) {
     const auto t = static_cast<int32_t>(ti);
-    uint8_t mask = 0;
-    for (int f = 0; f < 4; ++f) {
-      const int32_t n = m.adj[4 * t + f];
-      // Faces between different Gmsh entities are kept too, even inside one
-      // region ref: entity boundaries are geometry the user gave.
-      bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t] || (has_entity && m.tet_entity[n / 4] != m.tet_entity[t]);
-      if (!c && !listed.empty()) c = listed[4 * static_cast<size_t>(t) + f];
-      if (c) mask |= static_cast<uint8_t>(1u << f);
-    }
-    m.face_mask[t] = mask;
+    m.face_mask[t] = constrained_faces(m, t, has_entity, listed.empty() ? nullptr : &listed[4 * static_cast<size_t>(t)]);
   });
   for (int32_t t = 0; t < nt; ++t) {
     const uint8_t mask = m.face_mask[t];
@@ -558,35 +572,11 @@ Status refresh_topology(TetMesh& m, int32_t first_new, int threads) {
   m.face_mask.resize(static_cast<size_t>(nt));
   m.tet_kind.resize(static_cast<size_t>(nt));
   const size_t nnew = static_cast<size_t>(nt - first_new);
-  std::vector<uint8_t> listed;
-  if (!m.tris.empty()) {
-    listed.assign(4 * nnew, 0);
-    for (int32_t i = 0; i < m.ntri(); ++i) {
-      const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
-      if (!touched[a] || !touched[b] || !touched[c]) continue;
-      for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
-        if (*it < first_new) continue;
-        const int32_t* v = m.tet(*it);
-        int has = 0, other = -1;
-        for (int k = 0; k < 4; ++k) {
-          if (v[k] == a || v[k] == b || v[k] == c) ++has;
-          else other = k;
-        }
-        if (has == 3 && other >= 0) listed[4 * static_cast<size_t>(*it - first_new) + other] = 1;
-      }
-    }
-  }
+  const std::vector<uint8_t> listed = listed_faces(m, first_new, &touched);
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
   detail::parallel_for_each(static_cast<int64_t>(nnew), threads, [&](int64_t i) {
     const auto t = static_cast<int32_t>(first_new + i);
-    uint8_t mask = 0;
-    for (int f = 0; f < 4; ++f) {
-      const int32_t n = m.adj[4 * static_cast<size_t>(t) + f];
-      bool c = n < 0 || m.tet_ref[n / 4] != m.tet_ref[t] || (has_entity && m.tet_entity[n / 4] != m.tet_entity[t]);
-      if (!c && !listed.empty()) c = listed[4 * static_cast<size_t>(i) + f];
-      if (c) mask |= static_cast<uint8_t>(1u << f);
-    }
-    m.face_mask[t] = mask;
+    m.face_mask[t] = constrained_faces(m, t, has_entity, listed.empty() ? nullptr : &listed[4 * static_cast<size_t>(i)]);
     const int32_t* v = m.tet(t);
     m.tet_kind[t] = static_cast<uint8_t>(m.vert_constrained[v[0]] + m.vert_constrained[v[1]] +
                                          m.vert_constrained[v[2]] + m.vert_constrained[v[3]]);
