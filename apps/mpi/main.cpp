@@ -67,7 +67,7 @@ const char* kHelp =
     "Rank 0 reads, partitions and merges while the other ranks wait, and uses every\n"
     "core it may run on for that; Open MPI binds each rank to one core when K is\n"
     "at most 2, so on one machine run `mpirun --bind-to none -np K ...` (flange_large,\n"
-    "2 ranks on 2 cores: 16.3 s bound, 13.4 s with --bind-to none; docs/mpi.md).\n"
+    "2 ranks on 2 cores: 11.8-12.2 s bound, 9.6-10.1 s with --bind-to none).\n"
     "\n"
     "options (as tetopt improve):\n"
     "  -o, --output OUT     output mesh (required)\n"
