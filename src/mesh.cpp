@@ -188,18 +188,21 @@ Status compact_vertices(TetMesh& m, const std::vector<int32_t>& drop, std::vecto
   return Status::success();
 }
 
-void build_vertex_tets(TetMesh& m) {
-  // Serial: a parallel count and scatter (atomic increments, then sorting
-  // every star) was 5-8x slower on the impeller at 2 threads.
-  const int32_t nv = m.nv(), nt = m.nt();
-  m.vt_offsets.assign(static_cast<size_t>(nv) + 1, 0);
-  for (int32_t v : m.tets) m.vt_offsets[v + 1]++;
-  for (int32_t v = 0; v < nv; ++v) m.vt_offsets[v + 1] += m.vt_offsets[v];
-  m.vt_tets.resize(m.tets.size());
-  std::vector<int32_t> fill(m.vt_offsets.begin(), m.vt_offsets.end() - 1);
-  for (int32_t t = 0; t < nt; ++t)
-    for (int k = 0; k < 4; ++k) m.vt_tets[fill[m.tets[4 * static_cast<size_t>(t) + k]]++] = t;
+namespace {
+// The vertex->tet CSR of `tets` over nv vertices, tets in increasing order in
+// every star.  Serial: a parallel count and scatter (atomic increments, then
+// sorting every star) was 5-8x slower on the impeller at 2 threads.
+void star_csr(const std::vector<int32_t>& tets, int32_t nv, std::vector<int32_t>& off, std::vector<int32_t>& vt) {
+  off.assign(static_cast<size_t>(nv) + 1, 0);
+  for (int32_t v : tets) off[v + 1]++;
+  for (int32_t v = 0; v < nv; ++v) off[v + 1] += off[v];
+  vt.resize(tets.size());
+  std::vector<int32_t> fill(off.begin(), off.end() - 1);
+  for (size_t i = 0; i < tets.size(); ++i) vt[fill[tets[i]]++] = static_cast<int32_t>(i / 4);
 }
+}  // namespace
+
+void build_vertex_tets(TetMesh& m) { star_csr(m.tets, m.nv(), m.vt_offsets, m.vt_tets); }
 
 namespace {
 // An error found in a parallel block, with the position it was found at so
@@ -344,8 +347,8 @@ namespace {
 // one-sided link); the caller then runs build_adjacency_sorted, which finds
 // the same links and reports the first defect in its own order.
 // only: when not null, the buckets of these vertices alone are rebuilt (the
-// other entries of adj are left as they are), and only the links they set
-// are checked for symmetry.
+// other entries of adj are left as they are); the symmetry check covers
+// every link, the kept ones too.
 bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std::vector<int32_t>& vt, int threads,
                           const std::vector<int32_t>* only = nullptr) {
   const int32_t nt = m.nt();
@@ -404,11 +407,9 @@ bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std
 }  // namespace
 
 Status build_adjacency(TetMesh& m, int threads) {
-  TetMesh stars;  // only its star arrays
-  stars.tets = m.tets;
-  stars.xyz.resize(m.xyz.size());
-  build_vertex_tets(stars);
-  if (!adjacency_from_stars(m, stars.vt_offsets, stars.vt_tets, threads)) return build_adjacency_sorted(m, threads);
+  std::vector<int32_t> off, vt;  // stars of its own: m's may be stale or absent
+  star_csr(m.tets, m.nv(), off, vt);
+  if (!adjacency_from_stars(m, off, vt, threads)) return build_adjacency_sorted(m, threads);
   return check_duplicates(m, threads);
 }
 namespace {

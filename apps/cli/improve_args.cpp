@@ -24,6 +24,21 @@ bool to_int(const std::string& v, long long& out) {
 
 }  // namespace
 
+bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int64_t hi, int64_t& out,
+                 std::string& err) {
+  double d = 0;
+  if (!to_double(s, d)) {
+    err = name + ": not a number: '" + s + "'";
+    return false;
+  }
+  if (d != std::floor(d) || d < static_cast<double>(lo) || d > static_cast<double>(hi)) {
+    err = name + " must be a whole number in " + std::to_string(lo) + ".." + std::to_string(hi);
+    return false;
+  }
+  out = static_cast<int64_t>(d);
+  return true;
+}
+
 ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,
                                      const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err) {
   using R = ImproveArgsResult;

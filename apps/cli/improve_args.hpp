@@ -10,6 +10,7 @@
 // no dependency on the rest of apps/cli (apps/mpi/CMakeLists.txt compiles it
 // into tetopt-mpi).
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -47,6 +48,12 @@ enum class ImproveArgsResult {
   Error,          // err holds one line; exit 1
   ErrorWithHelp,  // unknown option, no input, no output: err, a blank line, then the help
 };
+
+/// A whole number in [lo, hi] for option `name` (the own options of a
+/// program, e.g. tetopt-mpi's --rounds): false with a one-line err
+/// ("NAME: not a number: 'S'" or "NAME must be a whole number in LO..HI").
+bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int64_t hi, int64_t& out,
+                 std::string& err);
 
 /// Parses args (the words after "improve").  Stops at the first error.
 ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,

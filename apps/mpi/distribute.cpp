@@ -19,9 +19,9 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
   // Inactive tets go to group `parts` (kept by rank 0, not improved).
   std::vector<int32_t> part(static_cast<size_t>(ntg), opt.parts);
   if (contracted) *contracted = false;
-  std::vector<int32_t> id(static_cast<size_t>(ntg), -1), tet_of;  // compact numbering of the active tets
+  std::vector<int32_t> tet_of;  // the active tets, in order
   for (int32_t t = 0; t < ntg; ++t)
-    if (all || (*opt.active)[t]) { id[t] = static_cast<int32_t>(tet_of.size()); tet_of.push_back(t); }
+    if (all || (*opt.active)[t]) tet_of.push_back(t);
   const int32_t nt = static_cast<int32_t>(tet_of.size());
   if (opt.parts <= 1) {
     for (int32_t t : tet_of) part[t] = 0;
@@ -69,6 +69,10 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
   for (size_t k = 0; k < gid.size(); ++k)
     if (gid[k] == 0) { gid[k] = static_cast<int32_t>(group_key.size()); group_key.push_back(static_cast<int32_t>(k)); }
   const auto ng = static_cast<int32_t>(group_key.size());
+  if (ng < opt.parts) {
+    err = "fewer tet groups (" + std::to_string(ng) + ") than parts (" + std::to_string(opt.parts) + ")";
+    return {};
+  }
   // The tets of group i: those of vertex v's star whose key is v, or the tet.
   auto for_members = [&](int32_t i, const auto& fn) {
     const int32_t k = group_key[static_cast<size_t>(i)];
@@ -132,10 +136,6 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
     adjncy.insert(adjncy.end(), bl.adj.begin(), bl.adj.end());
     adjwgt.insert(adjwgt.end(), bl.wgt.begin(), bl.wgt.end());
     vwgt.insert(vwgt.end(), bl.vw.begin(), bl.vw.end());
-  }
-  if (ng < opt.parts) {
-    err = "fewer tet groups (" + std::to_string(ng) + ") than parts (" + std::to_string(opt.parts) + ")";
-    return {};
   }
   idx_t nvtxs = ng, ncon = 1, nparts = opt.parts, objval = 0;
   idx_t options[METIS_NOPTIONS];

@@ -79,13 +79,13 @@ struct PartitionOptions {
   /// tets with the same smallest vertex before METIS (faster, a more ragged
   /// cut); at or below, METIS gets the dual graph itself.
   int64_t contract_above = 250000;
-
 };
 
 /// Part id (0..parts-1, or parts for an inactive tet) of every tet of g
 /// (topology built), from METIS (METIS_PartGraphKway on the dual graph of the
-/// active tets, or on its contraction, see PartitionOptions::contract_above).  Returns an empty vector and sets err when METIS fails.
-/// contracted (optional): set to whether METIS got the contracted graph.
+/// active tets, or on its contraction, see PartitionOptions::contract_above).
+/// Returns an empty vector and sets err when METIS fails.  contracted
+/// (optional): set to whether METIS got the contracted graph.
 std::vector<int32_t> partition_tets(const tetopt::TetMesh& g, const PartitionOptions& opt, std::string& err,
                                     bool* contracted = nullptr);
 

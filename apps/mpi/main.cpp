@@ -103,7 +103,7 @@ const char* kHelp =
 struct Args : tetopt_cli::ImproveArgs {
   std::string per_rank;
   int rounds = 8;
-  int64_t contract_above = 250000;  ///< see PartitionOptions::contract_above
+  int64_t contract_above = tetopt_mpi::PartitionOptions{}.contract_above;
 };
 
 double now() {
@@ -120,21 +120,13 @@ int parse_args(int argc, char** argv, Args& a, std::string& err) {
   const std::vector<tetopt_cli::ExtraOption> extra = {
       {{"--per-rank"}, true, [&](const std::string& s, std::string&) { a.per_rank = s; return true; }},
       {{"--rounds"}, true, [&](const std::string& s, std::string& e) {
-         char* end = nullptr;
-         const double d = std::strtod(s.c_str(), &end);
-         if (s.empty() || *end || !std::isfinite(d)) { e = "--rounds: not a number: '" + s + "'"; return false; }
-         if (d != std::floor(d) || d < 0 || d > 1e9) { e = "--rounds must be a non-negative integer"; return false; }
-         if (d < 1 || d > 1000) { e = "--rounds must be in 1..1000"; return false; }
-         a.rounds = static_cast<int>(d);
+         int64_t n = 0;
+         if (!tetopt_cli::parse_whole("--rounds", s, 1, 1000, n, e)) return false;
+         a.rounds = static_cast<int>(n);
          return true;
        }},
       {{"--contract-above"}, true, [&](const std::string& s, std::string& e) {
-         char* end = nullptr;
-         const double d = std::strtod(s.c_str(), &end);
-         if (s.empty() || *end || !std::isfinite(d)) { e = "--contract-above: not a number: '" + s + "'"; return false; }
-         if (d != std::floor(d) || d < 0 || d > 9e15) { e = "--contract-above must be a non-negative integer"; return false; }
-         a.contract_above = static_cast<int64_t>(d);
-         return true;
+         return tetopt_cli::parse_whole("--contract-above", s, 0, int64_t{1} << 53, a.contract_above, e);
        }},
   };
   switch (tetopt_cli::parse_improve_args(v, {"tetopt-mpi", "tetopt-mpi"}, extra, a, err)) {
