@@ -236,6 +236,8 @@ void run_tables(std::ostringstream& o, const HtmlReportInput& in) {
     << "<tr><td class=\"l\">4-4 flips</td><td>" << r.flip44 << "</td></tr>\n"
     << "<tr><td class=\"l\">edge removals</td><td>" << r.edge_removals << "</td></tr>\n"
     << "<tr><td class=\"l\">multi-face removals</td><td>" << r.multi_face_removals << "</td></tr>\n"
+    << "<tr><td class=\"l\">pairs of the flips above made together (a worse first step, then a better second)</td><td>"
+    << r.pair_flips << "</td></tr>\n"
     << "<tr><td class=\"l\">all-boundary tets removed</td><td>" << r.all_boundary_removed << "</td></tr>\n"
     << "<tr><td class=\"l\">vertices inserted</td><td>" << r.insertions << "</td></tr>\n"
     << "<tr><td class=\"l\">vertices removed</td><td>" << r.removals << "</td></tr>\n"

@@ -19,6 +19,7 @@
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -547,7 +548,7 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
     if (k4) worst_k4 = std::min(worst_k4, c.new_alpha[i]);
   }
   c.new_min = worst;
-  bool ok = c.new_min > c.old_min + o_.margin;
+  bool ok = c.new_min > c.old_min + o_.margin || (any_valid_ && c.new_min > 0);
   // May-worsen policy (Liu et al. §4): fewer kind-4 tets, and only tets that
   // smoothing can still fix (kind < 4) may fall below the old worst alpha.
   if (!ok && !strict && !o_.must_improve)
@@ -640,8 +641,9 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
 }
 
 // ---------------------------------------------------------------------------
-void TopoEditor::commit(const Candidate& c) {
-  int32_t slot[kMaxNew];
+void TopoEditor::commit(const Candidate& c, int32_t* slots, bool counted) {
+  int32_t local[kMaxNew];
+  int32_t* slot = slots ? slots : local;
   const bool has_entity = !m_.tet_entity.empty();
   for (int i = 0; i < c.n_new; ++i) {
     if (i < c.n_old) {
@@ -701,7 +703,7 @@ void TopoEditor::commit(const Candidate& c) {
   for (int i = c.n_new; i < c.n_old; ++i) free_.push_back(c.old_tets[i]);
   for (int i = 0; i < c.n_new; ++i)
     for (int k = 0; k < 4; ++k) vstamp_[c.quad[i][k]] = stamp_;
-  count(c);
+  if (counted) count(c);
 }
 
 void TopoEditor::count(const Candidate& c) {
@@ -1128,6 +1130,121 @@ TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
   return r;
 }
 
+TopoResult TopoEditor::improve_tet_pair(int32_t t) {
+  const TopoResult single = plan_best(t, true, cand_, best_, nullptr);
+  if (single == TopoResult::Applied) {
+    commit(*best_);
+    return single;
+  }
+  if (o_.measure != TopoMeasure::Alpha || o_.alpha_floor > -1e300) return single;
+  // First operations: every valid option on t, whatever its quality.
+  constexpr int kOptions = 14;  // 6 edges, 4 faces x (face swap, multi-face)
+  if (trial_.empty()) trial_.resize(kOptions);
+  int n1 = 0;
+  {
+    const TopoOptions saved = o_;
+    o_.must_improve = false;
+    o_.worsen_bound = kInf;
+    any_valid_ = true;
+    for (int le = 0; le < 6; ++le)
+      if (plan_edge(t, le, 0, false, trial_[n1], -kInf, nullptr) == TopoResult::Applied) ++n1;
+    for (int lf = 0; lf < 4; ++lf) {
+      if (o_.use_face_swap && plan_multi(t, lf, 1, false, trial_[n1], nullptr) == TopoResult::Applied) ++n1;
+      if (o_.use_multi_face && plan_multi(t, lf, o_.max_shell - 2, false, trial_[n1], nullptr) == TopoResult::Applied &&
+          trial_[n1].size > 1)
+        ++n1;
+    }
+    any_valid_ = false;
+    o_ = saved;
+  }
+  // Applies trial i, returning the new tets' slots; undo() restores the
+  // tets it replaced (same ids, same vertex order; the alpha cache gets the
+  // same values back, since both are quality() of the same four points).
+  int32_t slots[kMaxNew];
+  int32_t saved_quads[kMaxOld][4];
+  auto undo = [&](const Candidate& c1) {
+    Candidate& inv = *cand_;
+    inv.kind = c1.kind;
+    inv.size = c1.size;
+    inv.ref = c1.ref;
+    inv.entity = c1.entity;
+    inv.n_old = c1.n_new;
+    inv.old_min = -kInf;
+    inv.k4_old = c1.k4_new;
+    for (int i = 0; i < c1.n_new; ++i) inv.old_tets[i] = slots[i];
+    inv.n_new = c1.n_old;
+    for (int i = 0; i < c1.n_old; ++i) std::copy(saved_quads[i], saved_quads[i] + 4, inv.quad[i]);
+    any_valid_ = true;
+    const TopoResult r = finish_plan(false, inv);
+    any_valid_ = false;
+    // The tets of c1 filled exactly this cavity, so the inverse is valid.
+    if (r != TopoResult::Applied) throw std::logic_error("improve_tet_pair: undo refused");
+    // c1 freed old_tets[n_new..n_old) in order: pop them back in that order
+    // so every restored tet gets its id again (later trials refer to them).
+    const int freed = c1.n_old - c1.n_new;
+    if (freed > 1) std::reverse(free_.end() - freed, free_.end());
+    commit(inv, nullptr, false);
+    // c1 took slots[n_old..n_new) from the back of free_ (or appended them):
+    // give them back in the order that restores free_.
+    const int taken = c1.n_new - c1.n_old;
+    if (taken > 1) std::reverse(free_.end() - taken, free_.end());
+  };
+  // Evaluates trial i applied: the best second operation on one of its new
+  // tets at or below the worst alpha it replaced; returns the worst alpha of
+  // the pair's result when it beats every tet the pair replaced, else -inf.
+  auto second = [&](const Candidate& c1, int& which) {
+    double best = -kInf;
+    for (int j = 0; j < c1.n_new; ++j) {
+      const int32_t w = slots[j];
+      if (alpha_[w] > c1.old_min + o_.margin) continue;
+      if (plan_best(w, true, cand_, best_, nullptr) != TopoResult::Applied) continue;
+      const Candidate& c2 = *best_;
+      double new_min = c2.new_min, old_min = c1.old_min;
+      for (int i = 0; i < c2.n_old; ++i) {
+        const int32_t o = c2.old_tets[i];
+        if (std::find(slots, slots + c1.n_new, o) == slots + c1.n_new) old_min = std::min(old_min, alpha_[o]);
+      }
+      for (int i = 0; i < c1.n_new; ++i)
+        if (std::find(c2.old_tets, c2.old_tets + c2.n_old, slots[i]) == c2.old_tets + c2.n_old)
+          new_min = std::min(new_min, alpha_[slots[i]]);
+      if (new_min > old_min + o_.margin && new_min > best) {
+        best = new_min;
+        which = j;
+      }
+    }
+    return best;
+  };
+  double best = -kInf;
+  int best_i = -1, best_j = -1;
+  for (int i = 0; i < n1; ++i) {
+    const Candidate& c1 = trial_[i];
+    for (int k = 0; k < c1.n_old; ++k) std::copy(m_.tet(c1.old_tets[k]), m_.tet(c1.old_tets[k]) + 4, saved_quads[k]);
+    commit(c1, slots, false);
+    int j = -1;
+    const double v = second(c1, j);
+    if (v > best) {
+      best = v;
+      best_i = i;
+      best_j = j;
+    }
+    undo(c1);
+  }
+  if (best_i < 0) return single;
+  // Apply the best pair again; the mesh is as it was before the trials, so
+  // the second plan is the one evaluated.
+  const Candidate& c1 = trial_[best_i];
+  for (int k = 0; k < c1.n_old; ++k) std::copy(m_.tet(c1.old_tets[k]), m_.tet(c1.old_tets[k]) + 4, saved_quads[k]);
+  commit(c1, slots, false);
+  if (plan_best(slots[best_j], true, cand_, best_, nullptr) != TopoResult::Applied) {
+    undo(c1);  // cannot happen: same cavity, same geometry as the trial
+    return single;
+  }
+  count(c1);
+  commit(*best_);
+  ++stats_.pairs;
+  return TopoResult::Applied;
+}
+
 int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, bool kind4_only, double threshold) {
   auto eligible = [&](int32_t t) {
     return alive(t) && (!kind4_only || m_.tet_kind[t] == 4) && below(t, threshold);
@@ -1209,7 +1326,10 @@ void TopoEditor::finish() {
   if (finished_) return;
   finished_ = true;
   stats_.tets_after = m_.nt();
-  if (stats_.applied() == 0) {  // nothing changed: derived topology is still current
+  // Nothing changed (trials of improve_tet_pair that were undone restore
+  // every tet in its slot, but may leave appended tombstones): the derived
+  // topology is still current.
+  if (stats_.applied() == 0 && m_.nt() == stats_.tets_before) {
     if (shared_) shared_->swap(alpha_);
     return;
   }
@@ -1349,6 +1469,61 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
 }
 
 }  // namespace
+
+TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t max_tets, const LogFn& log,
+                         std::vector<double>* alpha_cache) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TopoStats st;
+  if (!topology_current(m)) {
+    st.status = build_topology(m);
+    if (!st.status) return st;
+  }
+  st.tets_before = m.nt();
+  {
+    TopoEditor ed(m, o, alpha_cache);
+    st.alpha_worst_before = ed.min_cached();
+    st.kind4_before = count_kind4(m, o.threads);
+    double worst = ed.min_cached();
+    for (int p = 0; p < std::max(1, o.passes); ++p) {
+      const double thr = std::min(o.quality_threshold, worst + band);
+      std::vector<int32_t> work = detail::parallel_select(
+          m.nt(), o.threads,
+          [&](int64_t t) { return ed.alive(static_cast<int32_t>(t)) && ed.below(static_cast<int32_t>(t), thr); });
+      std::stable_sort(work.begin(), work.end(),
+                       [&](int32_t a, int32_t b) { return ed.cached_alpha(a) < ed.cached_alpha(b); });
+      if (max_tets >= 0 && static_cast<int64_t>(work.size()) > max_tets) work.resize(max_tets);
+      int64_t changed = 0;
+      for (const int32_t t : work)
+        if (ed.alive(t) && ed.below(t, thr) && ed.improve_tet_pair(t) == TopoResult::Applied)
+          ++changed;
+      ++ed.stats().passes;
+      if (log)
+        log(LogLevel::Info, "topo pair pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
+                                " tets visited, " + std::to_string(changed) + " changes (" +
+                                std::to_string(ed.stats().pairs) + " pairs so far)");
+      // Another pass only after one that raised the worst alpha: the worst
+      // tet is then still the target, and the band moves up with it.
+      const double w = ed.min_cached();
+      if (changed == 0 || !(w > worst + o.margin)) break;
+      worst = w;
+    }
+    st.alpha_worst_after = ed.min_cached();
+    ed.finish();
+    st.kind4_after = count_kind4(m, o.threads);
+    const TopoStats& es = ed.stats();
+    st.flip23 = es.flip23;
+    st.flip32 = es.flip32;
+    st.flip44 = es.flip44;
+    st.edge_removals = es.edge_removals;
+    st.multi_face_removals = es.multi_face_removals;
+    st.flip22 = es.flip22;
+    st.pairs = es.pairs;
+    st.passes = es.passes;
+  }
+  st.tets_after = m.nt();
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
 
 TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   return run_passes(m, o, log, PassKind::AllBoundary, nullptr);

@@ -167,12 +167,13 @@ int cmd_improve(const std::vector<std::string>& args) {
     std::printf("%s -> %s (mode %s, C = %.2f)\n", in.c_str(), out.c_str(), mode_name(opt.mode), opt.weight);
     std::printf("%s", format_before_after(rep.before, rep.after, rep.seconds_total).c_str());
     std::printf("  operations: %lld smoothing moves, %lld 2-3, %lld 3-2, %lld edge removals, %lld multi-face "
-                "removals, %lld 2-2, %lld 4-4; %lld all-boundary tets removed; %lld vertices inserted, %lld removed; "
-                "%d rounds\n",
+                "removals, %lld 2-2, %lld 4-4 (%lld pairs of them made together); %lld all-boundary tets removed; "
+                "%lld vertices inserted, %lld removed; %d rounds\n",
                 static_cast<long long>(rep.smooth_moves), static_cast<long long>(rep.flip23),
                 static_cast<long long>(rep.flip32), static_cast<long long>(rep.edge_removals),
                 static_cast<long long>(rep.multi_face_removals), static_cast<long long>(rep.flip22),
-                static_cast<long long>(rep.flip44), static_cast<long long>(rep.all_boundary_removed),
+                static_cast<long long>(rep.flip44), static_cast<long long>(rep.pair_flips),
+                static_cast<long long>(rep.all_boundary_removed),
                 static_cast<long long>(rep.insertions), static_cast<long long>(rep.removals), rep.rounds);
     if (rep.untangled > 0 || rep.still_inverted > 0)
       std::printf("  untangling: %lld inverted or flat input tets made positive, %lld could not be (ids in the log)\n",

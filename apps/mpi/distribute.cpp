@@ -299,7 +299,8 @@ std::string encode_result(const Status& s, const ImproveReport& rep, double seco
   w.put<double>(seconds);
   const int64_t counts[] = {rep.smooth_moves, rep.smooth_tried, rep.flip23, rep.flip32, rep.edge_removals,
                             rep.multi_face_removals, rep.flip22, rep.flip44, rep.all_boundary_removed,
-                            rep.insertions, rep.untangled, rep.still_inverted, rep.vertex_moves, rep.rounds};
+                            rep.insertions, rep.untangled, rep.still_inverted, rep.vertex_moves, rep.pair_flips,
+                            rep.rounds};
   for (int64_t c : counts) w.put<int64_t>(c);
   const double secs[] = {rep.seconds_total, rep.seconds_smooth, rep.seconds_topo, rep.seconds_check};
   for (double x : secs) w.put<double>(x);
@@ -321,7 +322,7 @@ bool decode_result(const std::string& msg, PartResult& out) {
   int64_t* counts[] = {&out.rep.smooth_moves, &out.rep.smooth_tried, &out.rep.flip23, &out.rep.flip32,
                        &out.rep.edge_removals, &out.rep.multi_face_removals, &out.rep.flip22, &out.rep.flip44,
                        &out.rep.all_boundary_removed, &out.rep.insertions, &out.rep.untangled,
-                       &out.rep.still_inverted, &out.rep.vertex_moves};
+                       &out.rep.still_inverted, &out.rep.vertex_moves, &out.rep.pair_flips};
   for (int64_t* c : counts) *c = r.get<int64_t>();
   out.rep.rounds = static_cast<int>(r.get<int64_t>());
   out.rep.seconds_total = r.get<double>();

@@ -248,7 +248,7 @@ struct RoundLog {
   bool worst_frozen = false;                   ///< the worst tet touched this round's interface
   int64_t active_tets = 0;                     ///< tets sent out to be improved this round
   int64_t frozen_tets = 0, refrozen_tets = 0;  ///< tets touching the interface; of those, also the previous one
-  int64_t insertions = 0, flips = 0, smooth_moves = 0;
+  int64_t insertions = 0, flips = 0, pair_flips = 0, smooth_moves = 0;
   QualityStats after;
 };
 
@@ -283,6 +283,7 @@ std::string round_json(const RoundLog& r) {
   s += ", \"bytes_scatter\": " + std::to_string(r.bytes_scatter) + ", \"bytes_gather\": " + std::to_string(r.bytes_gather);
   s += ", \"frozen_tets\": " + std::to_string(r.frozen_tets) + ", \"refrozen_tets\": " + std::to_string(r.refrozen_tets);
   s += ", \"insertions\": " + std::to_string(r.insertions) + ", \"flips\": " + std::to_string(r.flips) +
+       ", \"pair_flips\": " + std::to_string(r.pair_flips) +
        ", \"smooth_moves\": " + std::to_string(r.smooth_moves);
   s += ", \"alpha_worst\": " + num(r.after.alpha_worst) + ", \"alpha_mean\": " + num(r.after.alpha_mean) +
        ", \"alpha_below_03\": " + std::to_string(r.after.alpha_below_03) + "}";
@@ -538,6 +539,7 @@ int leader(const Args& a, int size) {
       const int64_t fl = r.rep.flip23 + r.rep.flip32 + r.rep.edge_removals + r.rep.multi_face_removals +
                          r.rep.flip22 + r.rep.flip44;
       L.flips += fl;
+      L.pair_flips += r.rep.pair_flips;
       L.flips_per_rank.push_back(fl);
       L.improve_rounds_per_rank.push_back(r.rep.rounds);
       L.smooth_moves += r.rep.smooth_moves;

@@ -57,6 +57,7 @@ struct ImproveReport {
   QualityStats before, after;
   int64_t smooth_moves = 0, smooth_tried = 0;
   int64_t flip23 = 0, flip32 = 0, edge_removals = 0, multi_face_removals = 0, flip22 = 0, flip44 = 0;
+  int64_t pair_flips = 0;  ///< two-operation changes (topo.hpp, improve_tet_pair), also counted in the flips
   int64_t all_boundary_removed = 0;
   int64_t insertions = 0;     ///< vertices inserted (allow_insert)
   int64_t removals = 0;       ///< vertices removed (allow_remove)

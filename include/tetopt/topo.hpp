@@ -138,6 +138,7 @@ struct TopoStats {
   int64_t flip22 = 0;               ///< always 0 (see flip_22)
   int64_t insertions = 0;           ///< vertices inserted (insert_vertex)
   int64_t removals = 0;             ///< free vertices removed (remove_vertex)
+  int64_t pairs = 0;                ///< improve_tet_pair: two-operation changes (each also counted above)
   int64_t all_boundary_removed = 0; ///< operations that removed a kind-4 tet they were aimed at
   int64_t kind4_before = 0, kind4_after = 0;  ///< kind-4 tets before / after the call
   double alpha_worst_before = 0, alpha_worst_after = 0;  ///< over all tets
@@ -215,6 +216,18 @@ class TopoEditor {
   /// improvement even when TopoOptions::must_improve is false (flip_pass).
   /// Returns Applied, or the most telling refusal among the options.
   TopoResult improve_tet(int32_t t, bool strict);
+  /// improve_tet, and where no single operation improves t, a search of
+  /// depth two: every valid operation on t (edge removal of each edge, face
+  /// swap and multi-face removal across each free face) is applied even when
+  /// it lowers the worst alpha, followed by the best improving operation on
+  /// one of its new tets that is no better than the tets the first replaced;
+  /// the pair whose result has the highest worst alpha is kept when that
+  /// exceeds the worst alpha of every tet the pair replaced by the margin,
+  /// and everything else is undone.  Escapes the local optimum of single
+  /// flips where an all-boundary sliver can only go by way of a worse
+  /// intermediate (e.g. a 4-4 flip that creates the edge a 2-3 flip then
+  /// completes).  Alpha measure only; about 20 times the cost of improve_tet.
+  TopoResult improve_tet_pair(int32_t t);
   /// improve_tet on every tet of `work`, in order, that is alive, below
   /// `threshold` and (kind4_only) of kind 4 when its turn comes; returns the
   /// number applied.  With TopoOptions::threads > 1 the options of a window
@@ -278,8 +291,12 @@ class TopoEditor {
   // scratch pointers are swapped while options are compared).
   TopoResult plan_best(int32_t t, bool strict, Candidate*& cand, Candidate*& best,
                        std::vector<int32_t>* reads) const;
-  void commit(const Candidate& c);
+  // Writes the new tets of c; `slots`, when given, receives their ids.
+  // counted: add the operation to stats() (an undo of a trial is not).
+  void commit(const Candidate& c, int32_t* slots = nullptr, bool counted = true);
   void count(const Candidate& c);
+  bool any_valid_ = false;            // finish_plan accepts every valid option (improve_tet_pair)
+  std::vector<Candidate> trial_;      // improve_tet_pair's first operations (allocated on first use)
 
   double deferred(int32_t t) const;
   void fill_cache();
@@ -346,5 +363,15 @@ TopoStats flip_pass(TetMesh& m, const TopoOptions& o = {}, const LogFn& log = {}
 TopoStats remove_all_boundary_tets(TetMesh& m, const TopoOptions& o, const LogFn& log,
                                    std::vector<double>* alpha_cache);
 TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log, std::vector<double>* alpha_cache);
+
+/// improve_tet_pair on the tets with alpha below min(o.quality_threshold,
+/// worst alpha + band), worst first (ties: lower index), at most max_tets of
+/// them per pass (< 0: no limit), serially (the output does not depend on
+/// o.threads); passes repeat, with the band above the new worst alpha, for
+/// o.passes passes or until a pass changes nothing.  Meant for the few worst
+/// tets that flip_pass leaves: a visit costs about 20 flip_pass visits.
+/// Alpha measure only; alpha_cache as above.
+TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t max_tets = -1,
+                         const LogFn& log = {}, std::vector<double>* alpha_cache = nullptr);
 
 }  // namespace tetopt

@@ -601,3 +601,138 @@ TEST(Topo, DihedralPassRaisesAnglesWithoutLoweringWorstAlpha) {
     expect_invariants(s, m);
   }
 }
+
+namespace {
+// tests/data/medit/sliver_pair.mesh: 68 tets cut from the demo impeller,
+// every vertex required; one all-boundary sliver (alpha 0.0342) that no
+// single operation improves.
+TetMesh sliver_pair_mesh() {
+  TetMesh m;
+  const Status s = read_mesh(std::string(TETOPT_SOURCE_DIR) + "/tests/data/medit/sliver_pair.mesh", m);
+  EXPECT_TRUE(s.ok()) << s.message;
+  EXPECT_TRUE(build_topology(m).ok());
+  return m;
+}
+int32_t worst_tet(const TetMesh& m) {
+  int32_t w = 0;
+  for (int32_t t = 1; t < m.nt(); ++t)
+    if (tet_alpha(m, t) < tet_alpha(m, w)) w = t;
+  return w;
+}
+}  // namespace
+
+TEST(Topo, PairOfOperationsEscapesTheSingleFlipOptimum) {
+  TetMesh m = sliver_pair_mesh();
+  for (int32_t t = 0; t < m.nt(); ++t) ASSERT_EQ(m.tet_kind[t], 4);
+  const Snapshot s = snap(m);
+  const int32_t t = worst_tet(m);
+  const double a0 = tet_alpha(m, t);
+  ASSERT_LT(a0, 0.05);
+  const std::vector<int32_t> tets0 = m.tets, adj0 = m.adj;
+  {
+    TopoEditor ed(m, {});
+    // No single operation on the sliver raises the worst alpha of its cavity...
+    EXPECT_NE(ed.improve_tet(t, true), TopoResult::Applied);
+    EXPECT_EQ(m.tets, tets0);
+    // ...a pair does.
+    ASSERT_EQ(ed.improve_tet_pair(t), TopoResult::Applied);
+    EXPECT_EQ(ed.stats().pairs, 1);
+    EXPECT_EQ(ed.stats().applied(), 2);
+    ed.finish();
+  }
+  expect_invariants(s, m);
+  EXPECT_GT(worst_alpha(m), 0.3);
+  // A pass of single operations on the poor tets cannot do this (the
+  // other tets are above 0.55; flips among them happen to open the way).
+  TetMesh single = sliver_pair_mesh();
+  TopoOptions o;
+  o.quality_threshold = 0.3;
+  EXPECT_EQ(flip_pass(single, o).applied(), 0);
+  EXPECT_EQ(worst_alpha(single), a0);
+  // The pair pass with the same threshold does it.
+  const TopoStats st = pair_flip_pass(single, o, 1.0, -1);
+  EXPECT_EQ(st.pairs, 1);
+  EXPECT_GT(worst_alpha(single), 0.3);
+}
+
+TEST(Topo, PairTrialsThatFailLeaveTheMeshAsItWas) {
+  // On a jittered box many tets have no improving pair: each call that
+  // refuses must leave every live tet, link, mask and cached alpha as it was.
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 4;
+  bo.jitter = 0.45;
+  bo.seed = 5;
+  bo.regions = 2;
+  TetMesh m = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(m).ok());
+  const Snapshot s = snap(m);
+  TopoOptions o;
+  TopoEditor ed(m, o);
+  int refused = 0, applied = 0;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    if (!ed.alive(t)) continue;
+    const std::vector<int32_t> tets0 = m.tets, adj0 = m.adj;
+    const std::vector<uint8_t> mask0 = m.face_mask, kind0 = m.tet_kind;
+    std::vector<double> a0(m.nt());
+    for (int32_t u = 0; u < m.nt(); ++u) a0[u] = ed.alive(u) ? ed.cached_alpha(u) : 0;
+    const int64_t before = ed.stats().applied();
+    if (ed.improve_tet_pair(t) == TopoResult::Applied) {
+      ++applied;
+      EXPECT_GT(ed.stats().applied(), before);
+      continue;
+    }
+    ++refused;
+    EXPECT_EQ(ed.stats().applied(), before);
+    // Trials may append slots, which stay tombstones.
+    ASSERT_GE(m.nt(), static_cast<int32_t>(tets0.size() / 4));
+    for (int32_t u = 0; u < m.nt(); ++u) {
+      if (u >= static_cast<int32_t>(tets0.size() / 4)) {
+        EXPECT_FALSE(ed.alive(u));
+        continue;
+      }
+      ASSERT_EQ(ed.alive(u), tets0[4 * u] >= 0) << u;
+      if (!ed.alive(u)) continue;
+      for (int k = 0; k < 4; ++k) {
+        ASSERT_EQ(m.tets[4 * u + k], tets0[4 * u + k]) << u;
+        ASSERT_EQ(m.adj[4 * u + k], adj0[4 * u + k]) << u;
+      }
+      ASSERT_EQ(m.face_mask[u], mask0[u]);
+      ASSERT_EQ(m.tet_kind[u], kind0[u]);
+      ASSERT_EQ(ed.cached_alpha(u), a0[u]);
+    }
+  }
+  EXPECT_GT(refused, 0);
+  EXPECT_GT(applied, 0);
+  ed.finish();
+  expect_invariants(s, m);
+}
+
+TEST(Topo, PairPassKeepsInvariantsAndIsDeterministic) {
+  for (int regions : {1, 2}) {
+    SCOPED_TRACE(regions);
+    BoxMeshOptions bo;
+    bo.nx = 6; bo.ny = 5; bo.nz = 4;
+    bo.jitter = 0.45;
+    bo.seed = 17;
+    bo.regions = regions;
+    TetMesh m = make_box_mesh(bo);
+    ASSERT_TRUE(build_topology(m).ok());
+    TopoOptions o;
+    o.quality_threshold = 0.4;
+    flip_pass(m, o);  // the pair pass is meant for what single flips leave
+    const Snapshot s = snap(m);
+    TetMesh b = m;
+    ASSERT_TRUE(build_topology(b).ok());
+    const TopoStats st = pair_flip_pass(m, o, 1.0, -1);
+    ASSERT_TRUE(st.status.ok());
+    expect_invariants(s, m);
+    EXPECT_GE(st.alpha_worst_after, st.alpha_worst_before);
+    EXPECT_NEAR(st.alpha_worst_after, worst_alpha(m), 0);
+    EXPECT_GT(st.pairs, 0);
+    EXPECT_GE(st.applied(), 2 * st.pairs);
+    o.threads = 3;
+    pair_flip_pass(b, o, 1.0, -1);
+    EXPECT_EQ(m.tets, b.tets);
+    EXPECT_EQ(m.adj, b.adj);
+  }
+}
