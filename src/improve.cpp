@@ -92,7 +92,7 @@ class Driver {
     to.quality_threshold = gamma;
     to.passes = kPairPasses;
     to.threads = threads_;
-    TopoStats st = pair_flip_pass(m_, to, kPairBand, kPairMax, sub_log_, &alpha_);
+    TopoStats st = pair_flip_pass(m_, to, kPairBand, kPairMax, /*stop_at_worst=*/true, sub_log_, &alpha_);
     add(st, since(t));
     r_.pair_flips += st.pairs;
     return st.status;

@@ -1080,7 +1080,7 @@ TopoResult TopoEditor::remove_vertex(int32_t t) {
 }
 
 TopoResult TopoEditor::plan_best(int32_t t, bool strict, Candidate*& cand, Candidate*& best,
-                                 std::vector<int32_t>* reads) const {
+                                 std::vector<int32_t>* reads, double floor) const {
   if (!alive(t)) return TopoResult::NotApplicable;
   if (reads) {
     const int32_t* tv = m_.tet(t);
@@ -1101,8 +1101,9 @@ TopoResult TopoEditor::plan_best(int32_t t, bool strict, Candidate*& cand, Candi
   };
   // Branch and bound: later options must beat the best so far (ties on
   // alpha may still win on the kind-4 count, hence nextafter).
-  double bound = -kInf;
+  double bound = floor;
   auto consider = [&](TopoResult r) {
+    if (r == TopoResult::Applied && !(cand->new_min > floor)) r = TopoResult::NotImproved;
     if (r == TopoResult::Applied) {
       // Better: higher worst alpha; on ties fewer kind-4 tets; then first.
       if (!have || cand->new_min > best->new_min ||
@@ -1113,7 +1114,7 @@ TopoResult TopoEditor::plan_best(int32_t t, bool strict, Candidate*& cand, Candi
     } else if (rank(r) > rank(why)) {
       why = r;
     }
-    if (have) bound = std::nextafter(best->new_min, -kInf);
+    if (have) bound = std::max(floor, std::nextafter(best->new_min, -kInf));
   };
   if (o_.use_edge_removal)
     for (int le = 0; le < 6; ++le) consider(plan_edge(t, le, 0, strict, *cand, bound, reads));
@@ -1137,8 +1138,9 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t) {
     return single;
   }
   if (o_.measure != TopoMeasure::Alpha || o_.alpha_floor > -1e300) return single;
-  // First operations: every valid option on t, whatever its quality.
-  constexpr int kOptions = 14;  // 6 edges, 4 faces x (face swap, multi-face)
+  // First operations: every valid option on t and on its face neighbours,
+  // whatever its quality.
+  constexpr int kOptions = 5 * 14;  // 5 tets x (6 edges, 4 faces x (face swap, multi-face))
   if (trial_.empty()) trial_.resize(kOptions);
   int n1 = 0;
   {
@@ -1146,13 +1148,22 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t) {
     o_.must_improve = false;
     o_.worsen_bound = kInf;
     any_valid_ = true;
-    for (int le = 0; le < 6; ++le)
-      if (plan_edge(t, le, 0, false, trial_[n1], -kInf, nullptr) == TopoResult::Applied) ++n1;
-    for (int lf = 0; lf < 4; ++lf) {
-      if (o_.use_face_swap && plan_multi(t, lf, 1, false, trial_[n1], nullptr) == TopoResult::Applied) ++n1;
-      if (o_.use_multi_face && plan_multi(t, lf, o_.max_shell - 2, false, trial_[n1], nullptr) == TopoResult::Applied &&
-          trial_[n1].size > 1)
-        ++n1;
+    int32_t around[5] = {t, -1, -1, -1, -1};
+    for (int f = 0; f < 4; ++f) {
+      const int32_t nb = m_.adj[4 * static_cast<size_t>(t) + f];
+      around[1 + f] = nb >= 0 ? nb / 4 : -1;
+    }
+    for (const int32_t u : around) {
+      if (u < 0) continue;
+      for (int le = 0; le < 6; ++le)
+        if (plan_edge(u, le, 0, false, trial_[n1], -kInf, nullptr) == TopoResult::Applied) ++n1;
+      for (int lf = 0; lf < 4; ++lf) {
+        if (o_.use_face_swap && plan_multi(u, lf, 1, false, trial_[n1], nullptr) == TopoResult::Applied) ++n1;
+        if (o_.use_multi_face &&
+            plan_multi(u, lf, o_.max_shell - 2, false, trial_[n1], nullptr) == TopoResult::Applied &&
+            trial_[n1].size > 1)
+          ++n1;
+      }
     }
     any_valid_ = false;
     o_ = saved;
@@ -1189,15 +1200,22 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t) {
     const int taken = c1.n_new - c1.n_old;
     if (taken > 1) std::reverse(free_.end() - taken, free_.end());
   };
-  // Evaluates trial i applied: the best second operation on one of its new
-  // tets at or below the worst alpha it replaced; returns the worst alpha of
-  // the pair's result when it beats every tet the pair replaced, else -inf.
-  auto second = [&](const Candidate& c1, int& which) {
-    double best = -kInf;
-    for (int j = 0; j < c1.n_new; ++j) {
-      const int32_t w = slots[j];
-      if (alpha_[w] > c1.old_min + o_.margin) continue;
-      if (plan_best(w, true, cand_, best_, nullptr) != TopoResult::Applied) continue;
+  // Evaluates trial c1 applied: the best second operation on t (when c1
+  // left it) or on one of c1's new tets at or below the worst alpha c1
+  // replaced; returns the worst alpha of the pair's result when it beats
+  // every tet the pair replaced, else -inf.  which: the target, as an index
+  // into slots, or -2 for t.
+  auto second = [&](const Candidate& c1, double floor, int& which) {
+    double best = floor;
+    for (int j = -2; j < c1.n_new; ++j) {
+      if (j == -1) continue;
+      const int32_t w = j == -2 ? t : slots[j];
+      if (j == -2 ? !alive(t) || std::find(slots, slots + c1.n_new, t) != slots + c1.n_new
+                  : alpha_[w] > c1.old_min + o_.margin)
+        continue;
+      // Only a second operation whose new tets beat the best pair so far
+      // can make a better pair.
+      if (plan_best(w, true, cand_, best_, nullptr, std::max(best, floor)) != TopoResult::Applied) continue;
       const Candidate& c2 = *best_;
       double new_min = c2.new_min, old_min = c1.old_min;
       for (int i = 0; i < c2.n_old; ++i) {
@@ -1221,7 +1239,7 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t) {
     for (int k = 0; k < c1.n_old; ++k) std::copy(m_.tet(c1.old_tets[k]), m_.tet(c1.old_tets[k]) + 4, saved_quads[k]);
     commit(c1, slots, false);
     int j = -1;
-    const double v = second(c1, j);
+    const double v = second(c1, best, j);
     if (v > best) {
       best = v;
       best_i = i;
@@ -1235,7 +1253,7 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t) {
   const Candidate& c1 = trial_[best_i];
   for (int k = 0; k < c1.n_old; ++k) std::copy(m_.tet(c1.old_tets[k]), m_.tet(c1.old_tets[k]) + 4, saved_quads[k]);
   commit(c1, slots, false);
-  if (plan_best(slots[best_j], true, cand_, best_, nullptr) != TopoResult::Applied) {
+  if (plan_best(best_j == -2 ? t : slots[best_j], true, cand_, best_, nullptr) != TopoResult::Applied) {
     undo(c1);  // cannot happen: same cavity, same geometry as the trial
     return single;
   }
@@ -1470,8 +1488,8 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
 
 }  // namespace
 
-TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t max_tets, const LogFn& log,
-                         std::vector<double>* alpha_cache) {
+TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t max_tets, bool stop_at_worst,
+                         const LogFn& log, std::vector<double>* alpha_cache) {
   const auto t0 = std::chrono::steady_clock::now();
   TopoStats st;
   if (!topology_current(m)) {
@@ -1492,19 +1510,28 @@ TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t 
       std::stable_sort(work.begin(), work.end(),
                        [&](int32_t a, int32_t b) { return ed.cached_alpha(a) < ed.cached_alpha(b); });
       if (max_tets >= 0 && static_cast<int64_t>(work.size()) > max_tets) work.resize(max_tets);
-      int64_t changed = 0;
-      for (const int32_t t : work)
-        if (ed.alive(t) && ed.below(t, thr) && ed.improve_tet_pair(t) == TopoResult::Applied)
+      int64_t changed = 0, visited = 0;
+      for (const int32_t t : work) {
+        if (!ed.alive(t) || !ed.below(t, thr)) continue;
+        ++visited;
+        if (ed.improve_tet_pair(t) == TopoResult::Applied) {
           ++changed;
+        } else if (stop_at_worst && ed.cached_alpha(t) <= worst) {
+          // t is the worst tet and stays (a commit raises the worst alpha of
+          // its cavity, so nothing fell below it): the worst alpha cannot
+          // rise in this pass.
+          break;
+        }
+      }
       ++ed.stats().passes;
       if (log)
-        log(LogLevel::Info, "topo pair pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
-                                " tets visited, " + std::to_string(changed) + " changes (" +
-                                std::to_string(ed.stats().pairs) + " pairs so far)");
-      // Another pass only after one that raised the worst alpha: the worst
-      // tet is then still the target, and the band moves up with it.
+        log(LogLevel::Info, "topo pair pass " + std::to_string(p + 1) + ": " + std::to_string(visited) + " of " +
+                                std::to_string(work.size()) + " tets visited, " + std::to_string(changed) +
+                                " changes (" + std::to_string(ed.stats().pairs) + " pairs so far) DBG " + std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()));
+      // stop_at_worst: another pass only after one that raised the worst
+      // alpha (the band moves up with it).
       const double w = ed.min_cached();
-      if (changed == 0 || !(w > worst + o.margin)) break;
+      if (changed == 0 || (stop_at_worst && !(w > worst + o.margin))) break;
       worst = w;
     }
     st.alpha_worst_after = ed.min_cached();

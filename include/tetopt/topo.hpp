@@ -60,6 +60,7 @@
 // threshold) plus O(nt) for the alpha cache and the final rebuild.
 #pragma once
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "tetopt/mesh.hpp"
@@ -288,9 +289,10 @@ class TopoEditor {
                         std::vector<int32_t>* reads) const;
   TopoResult finish_plan(bool strict, Candidate& c) const;
   // improve_tet without the commit: the chosen option ends in *best (the two
-  // scratch pointers are swapped while options are compared).
+  // scratch pointers are swapped while options are compared).  Options whose
+  // worst new alpha does not exceed `floor` are refused.
   TopoResult plan_best(int32_t t, bool strict, Candidate*& cand, Candidate*& best,
-                       std::vector<int32_t>* reads) const;
+                       std::vector<int32_t>* reads, double floor = -std::numeric_limits<double>::infinity()) const;
   // Writes the new tets of c; `slots`, when given, receives their ids.
   // counted: add the operation to stats() (an undo of a trial is not).
   void commit(const Candidate& c, int32_t* slots = nullptr, bool counted = true);
@@ -368,10 +370,14 @@ TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log, std::vec
 /// worst alpha + band), worst first (ties: lower index), at most max_tets of
 /// them per pass (< 0: no limit), serially (the output does not depend on
 /// o.threads); passes repeat, with the band above the new worst alpha, for
-/// o.passes passes or until a pass changes nothing.  Meant for the few worst
-/// tets that flip_pass leaves: a visit costs about 20 flip_pass visits.
-/// Alpha measure only; alpha_cache as above.
+/// o.passes passes or until a pass changes nothing or (stop_at_worst) no
+/// longer raises the worst alpha.  stop_at_worst also ends a pass at the
+/// first tet it cannot improve that is the worst tet of the mesh: the rest of
+/// the pass could not raise the worst alpha.  Meant for the few worst tets
+/// that flip_pass leaves: a visit costs about 100 flip_pass visits.  Alpha
+/// measure only; alpha_cache as above.
 TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t max_tets = -1,
-                         const LogFn& log = {}, std::vector<double>* alpha_cache = nullptr);
+                         bool stop_at_worst = false, const LogFn& log = {},
+                         std::vector<double>* alpha_cache = nullptr);
 
 }  // namespace tetopt
