@@ -1527,7 +1527,7 @@ TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t 
       if (log)
         log(LogLevel::Info, "topo pair pass " + std::to_string(p + 1) + ": " + std::to_string(visited) + " of " +
                                 std::to_string(work.size()) + " tets visited, " + std::to_string(changed) +
-                                " changes (" + std::to_string(ed.stats().pairs) + " pairs so far) DBG " + std::to_string(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()));
+                                " changes (" + std::to_string(ed.stats().pairs) + " pairs so far)");
       // stop_at_worst: another pass only after one that raised the worst
       // alpha (the band moves up with it).
       const double w = ed.min_cached();
