@@ -736,3 +736,36 @@ TEST(Topo, PairPassKeepsInvariantsAndIsDeterministic) {
     EXPECT_EQ(m.adj, b.adj);
   }
 }
+
+TEST(Topo, DihedralMeasureDeferralIsALowerBound) {
+  // The editor defers the dihedral measure of tets whose bound (from the
+  // face-normal cosines) reaches the threshold; below() must still answer as
+  // the measure itself would, and cached_alpha() must give the measure,
+  // computed here from dihedral_angles independently.
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 6;
+  bo.jitter = 0.45;
+  bo.seed = 23;
+  TetMesh m = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(m).ok());
+  int deferred_tets = 0, below_tets = 0;
+  for (double thr : {0.3, 0.6, 0.9}) {
+    TopoOptions o;
+    o.measure = TopoMeasure::Dihedral;
+    o.quality_threshold = thr;
+    TopoEditor ed(m, o);
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      const int32_t* v = m.tet(t);
+      double d[6];
+      dihedral_angles(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]), d);
+      double q = 1e300;
+      for (double x : d) q = std::min({q, x / o.dihedral_lo, (180.0 - x) / (180.0 - o.dihedral_hi)});
+      below_tets += q < thr;
+      ASSERT_EQ(ed.below(t, thr), q < thr) << t << " " << q;
+      ASSERT_NEAR(ed.cached_alpha(t), q, 1e-9) << t;
+    }
+    deferred_tets += ed.deferring();
+  }
+  EXPECT_GT(deferred_tets, 0);
+  EXPECT_GT(below_tets, 0);
+}
