@@ -1155,30 +1155,35 @@ TopoResult TopoEditor::improve_tet(int32_t t, bool strict) {
   return r;
 }
 
-TopoResult TopoEditor::improve_tet_pair(int32_t t) {
+TopoResult TopoEditor::improve_tet_pair(int32_t t, int reach) {
   const TopoResult single = plan_best(t, true, cand_, best_, nullptr);
   if (single == TopoResult::Applied) {
     commit(*best_);
     return single;
   }
   if (o_.measure != TopoMeasure::Alpha || o_.alpha_floor > -1e300) return single;
-  // First operations: every valid option on t and on its face neighbours,
-  // whatever its quality.
-  constexpr int kOptions = 5 * 14;  // 5 tets x (6 edges, 4 faces x (face swap, multi-face))
-  if (trial_.empty()) trial_.resize(kOptions);
+  // First operations: every valid option on t and on the tets near it,
+  // whatever its quality: 6 edges and 4 faces x (face swap, multi-face) per tet.
+  constexpr int kOptionsPerTet = 14;
   int n1 = 0;
   {
     const TopoOptions saved = o_;
     o_.must_improve = false;
     o_.worsen_bound = kInf;
     any_valid_ = true;
-    int32_t around[5] = {t, -1, -1, -1, -1};
-    for (int f = 0; f < 4; ++f) {
-      const int32_t nb = m_.adj[4 * static_cast<size_t>(t) + f];
-      around[1 + f] = nb >= 0 ? nb / 4 : -1;
+    // t and the tets within `reach` face-to-face steps of it.
+    std::vector<int32_t>& around = around_;
+    around.assign(1, t);
+    for (int d = 0; d < reach; ++d) {
+      const size_t n0 = around.size();
+      for (size_t i = 0; i < n0; ++i)
+        for (int f = 0; f < 4; ++f) {
+          const int32_t nb = m_.adj[4 * static_cast<size_t>(around[i]) + f];
+          if (nb >= 0 && std::find(around.begin(), around.end(), nb / 4) == around.end()) around.push_back(nb / 4);
+        }
     }
+    if (trial_.size() < kOptionsPerTet * around.size()) trial_.resize(kOptionsPerTet * around.size());
     for (const int32_t u : around) {
-      if (u < 0) continue;
       for (int le = 0; le < 6; ++le)
         if (plan_edge(u, le, 0, false, trial_[n1], -kInf, nullptr) == TopoResult::Applied) ++n1;
       for (int lf = 0; lf < 4; ++lf) {
@@ -1541,10 +1546,12 @@ TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t 
         if (ed.improve_tet_pair(t) == TopoResult::Applied) {
           ++changed;
         } else if (stop_at_worst && ed.cached_alpha(t) <= worst) {
-          // t is the worst tet and stays (a commit raises the worst alpha of
-          // its cavity, so nothing fell below it): the worst alpha cannot
-          // rise in this pass.
-          break;
+          // t is the worst tet (a commit raises the worst alpha of its
+          // cavity, so nothing fell below it): one wider search, first
+          // operations on every tet within two face steps (about 17 tets),
+          // and if that fails too the worst alpha cannot rise in this pass.
+          if (ed.improve_tet_pair(t, 2) != TopoResult::Applied) break;
+          ++changed;
         }
       }
       ++ed.stats().passes;

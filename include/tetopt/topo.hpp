@@ -218,17 +218,19 @@ class TopoEditor {
   /// Returns Applied, or the most telling refusal among the options.
   TopoResult improve_tet(int32_t t, bool strict);
   /// improve_tet, and where no single operation improves t, a search of
-  /// depth two: every valid operation on t (edge removal of each edge, face
-  /// swap and multi-face removal across each free face) is applied even when
-  /// it lowers the worst alpha, followed by the best improving operation on
-  /// one of its new tets that is no better than the tets the first replaced;
+  /// depth two: every valid operation on t and on the tets within `reach`
+  /// face-to-face steps of it (edge removal of each edge, face swap and
+  /// multi-face removal across each free face; reach 1: t and its four
+  /// neighbours, about 70 options) is applied even when it lowers the worst
+  /// alpha, followed by the best improving operation on t or on one of its
+  /// new tets that is no better than the tets the first replaced;
   /// the pair whose result has the highest worst alpha is kept when that
   /// exceeds the worst alpha of every tet the pair replaced by the margin,
   /// and everything else is undone.  Escapes the local optimum of single
   /// flips where an all-boundary sliver can only go by way of a worse
   /// intermediate (e.g. a 4-4 flip that creates the edge a 2-3 flip then
-  /// completes).  Alpha measure only; about 20 times the cost of improve_tet.
-  TopoResult improve_tet_pair(int32_t t);
+  /// completes).  Alpha measure only; about 100 times the cost of improve_tet at reach 1.
+  TopoResult improve_tet_pair(int32_t t, int reach = 1);
   /// improve_tet on every tet of `work`, in order, that is alive, below
   /// `threshold` and (kind4_only) of kind 4 when its turn comes; returns the
   /// number applied.  With TopoOptions::threads > 1 the options of a window
@@ -299,6 +301,7 @@ class TopoEditor {
   void count(const Candidate& c);
   bool any_valid_ = false;            // finish_plan accepts every valid option (improve_tet_pair)
   std::vector<Candidate> trial_;      // improve_tet_pair's first operations (allocated on first use)
+  std::vector<int32_t> around_;       // improve_tet_pair's tets near t
 
   double deferred(int32_t t) const;
   void fill_cache();
@@ -371,9 +374,10 @@ TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log, std::vec
 /// them per pass (< 0: no limit), serially (the output does not depend on
 /// o.threads); passes repeat, with the band above the new worst alpha, for
 /// o.passes passes or until a pass changes nothing or (stop_at_worst) no
-/// longer raises the worst alpha.  stop_at_worst also ends a pass at the
-/// first tet it cannot improve that is the worst tet of the mesh: the rest of
-/// the pass could not raise the worst alpha.  Meant for the few worst tets
+/// longer raises the worst alpha.  stop_at_worst also gives the worst tet of
+/// the mesh, when reach 1 fails on it, a search at reach 2 (about 17 tets),
+/// and ends the pass when that fails too: the rest of the pass could not
+/// raise the worst alpha.  Meant for the few worst tets
 /// that flip_pass leaves: a visit costs about 100 flip_pass visits.  Alpha
 /// measure only; alpha_cache as above.
 TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t max_tets = -1,

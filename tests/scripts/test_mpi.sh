@@ -5,7 +5,11 @@
 # region and orientation checked here independently with meshio (and with
 # ../shared/tools/meshcheck.py compare where present); no inverted or flat
 # tet (tetopt quality); worst alpha within 5% of single-process tetopt
-# improve on the same mesh, or better.  Also: same output twice (determinism),
+# improve on the same mesh, or better.  The single-process reference is the
+# median over the mesh as generated and 4 copies with the tets in shuffled
+# order: a local method's worst alpha depends on the order it meets the
+# tets, and on the box below the single process alone ends anywhere from
+# 0.4888 to 0.5346 over 6 orders (measured 2026-11-23), wider than 5%.  Also: same output twice (determinism),
 # --per-rank files that add up to the output, --allow-insert, error exits.
 # usage: test_mpi.sh TETOPT SOURCE_DIR      (exit 77: tetopt-mpi or mpirun absent)
 set -u
@@ -94,24 +98,48 @@ run() {
   if [ -f "$REF" ]; then check "$name: meshcheck compare" 'referee "$in" "$out"'; fi
   check "$name: no inverted or flat tet" '[ "$(nonpos "$out")" = 0 ]'
   local w s
-  w=$(worst "$out"); s=$(worst "$single")
+  w=$(worst "$out")
+  if [ -f "$single" ]; then s=$(worst "$single"); else s=$single; fi
   if [ -z "${NO_5PCT:-}" ]; then check "$name: worst alpha $w within 5% of single-process $s" 'within5 "$w" "$s"'
   else echo "note $name: worst alpha $w, single-process $s (not held to the 5% rule)"; fi
   local w0; w0=$(worst "$in")
   check "$name: worst alpha improved ($w0 -> $w)" '/usr/bin/python3 -c "import sys; sys.exit(0 if $w > 2 * $w0 else 1)"'
 }
 
-"$T" improve "$W/a.mesh" -o "$W/a_single.mesh" -q || { echo "FAIL single-process improve"; exit 1; }
-"$T" improve "$W/b.mesh" -o "$W/b_single.vtu" -q || { echo "FAIL single-process improve"; exit 1; }
+# IN OUT SEED: IN (a Medit file tetopt wrote) with its Tetrahedra lines shuffled.
+shuffle_tets() {
+  /usr/bin/python3 - "$1" "$2" "$3" <<'EOF'
+import random, sys
+lines = open(sys.argv[1]).read().split("\n")
+i = lines.index("Tetrahedra"); n = int(lines[i + 1])
+body = lines[i + 2:i + 2 + n]
+random.Random(int(sys.argv[3])).shuffle(body)
+lines[i + 2:i + 2 + n] = body
+open(sys.argv[2], "w").write("\n".join(lines))
+EOF
+}
+# IN: median worst alpha of single-process improve over IN and 4 shuffles.
+single_median() {
+  local k v=""
+  for k in 0 1 2 3 4; do
+    if [ $k = 0 ]; then cp "$1" "$W/sh.mesh"; else shuffle_tets "$1" "$W/sh.mesh" $k; fi
+    "$T" improve "$W/sh.mesh" -o "$W/sh_out.mesh" -q || { echo "FAIL single-process improve" >&2; return 1; }
+    v="$v $(worst "$W/sh_out.mesh")"
+  done
+  /usr/bin/python3 -c "import statistics, sys; print(statistics.median(float(x) for x in sys.argv[1:]))" $v
+}
+a_single=$(single_median "$W/a.mesh") || exit 1
+b_single=$(single_median "$W/b.mesh") || exit 1
+echo "note single-process reference (median over 5 tet orders): two regions $a_single, box $b_single"
 "$T" improve "$W/b.mesh" -o "$W/b_single_ins.mesh" -q --allow-insert || { echo "FAIL single-process improve"; exit 1; }
 "$T" improve "$W/b.mesh" -o "$W/b_single_rm.mesh" -q --allow-insert --allow-remove || { echo "FAIL single-process improve"; exit 1; }
 
-run "two regions, -np 2" 2 "$W/a.mesh" "$W/a2.mesh" "$W/a_single.mesh" --report "$W/a2.json"
-run "two regions, -np 4" 4 "$W/a.mesh" "$W/a4.mesh" "$W/a_single.mesh" --per-rank "$W/parts"
-run "box, -np 4, .vtu output" 4 "$W/b.mesh" "$W/b4.vtu" "$W/b_single.vtu"
+run "two regions, -np 2" 2 "$W/a.mesh" "$W/a2.mesh" "$a_single" --report "$W/a2.json"
+run "two regions, -np 4" 4 "$W/a.mesh" "$W/a4.mesh" "$a_single" --per-rank "$W/parts"
+run "box, -np 4, .vtu output" 4 "$W/b.mesh" "$W/b4.vtu" "$b_single"
 # The contracted dual graph (normally only above 250,000 active tets) on a
 # small mesh, every round: same promise, same 5% rule.
-run "two regions, -np 2, contracted graph" 2 "$W/a.mesh" "$W/a2c.mesh" "$W/a_single.mesh" --contract-above 0 --report "$W/a2c.json"
+run "two regions, -np 2, contracted graph" 2 "$W/a.mesh" "$W/a2c.mesh" "$a_single" --contract-above 0 --report "$W/a2c.json"
 check "contracted graph: the report says so" '/usr/bin/python3 -c "
 import json, sys
 r = json.load(open(\"$W/a2c.json\"))
