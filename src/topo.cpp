@@ -572,13 +572,15 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
     if (k4) worst_k4 = std::min(worst_k4, c.new_alpha[i]);
   }
   c.new_min = worst;
-  bool ok = c.new_min > c.old_min + o_.margin || (any_valid_ && c.new_min > 0);
+  bool ok = c.new_min > c.old_min + o_.margin || (any_valid_ && c.new_min > 0) || restoring_;
   // May-worsen policy (Liu et al. §4): fewer kind-4 tets, and only tets that
   // smoothing can still fix (kind < 4) may fall below the old worst alpha.
   if (!ok && !strict && !o_.must_improve)
     ok = c.k4_new < c.k4_old && c.new_min >= c.old_min - o_.worsen_bound && worst_k4 >= c.old_min;
   if (!ok) return c.new_min > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
-  for (int i = 0; i < c.n_new; ++i) {
+  // (An undo restores tets that were there, flat or inverted input tets that
+  // untangling could not fix included: no orientation test for them.)
+  for (int i = 0; i < c.n_new && !restoring_; ++i) {
     const int32_t* q = c.quad[i];
     if (orient3d(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])) != Sign::Positive)
       return TopoResult::Inverted;
@@ -1214,9 +1216,9 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t, int reach) {
     for (int i = 0; i < c1.n_new; ++i) inv.old_tets[i] = slots[i];
     inv.n_new = c1.n_old;
     for (int i = 0; i < c1.n_old; ++i) std::copy(saved_quads[i], saved_quads[i] + 4, inv.quad[i]);
-    any_valid_ = true;
+    restoring_ = true;
     const TopoResult r = finish_plan(false, inv);
-    any_valid_ = false;
+    restoring_ = false;
     // The tets of c1 filled exactly this cavity, so the inverse is valid.
     if (r != TopoResult::Applied) throw std::logic_error("improve_tet_pair: undo refused");
     // c1 freed old_tets[n_new..n_old) in order: pop them back in that order

@@ -300,6 +300,7 @@ class TopoEditor {
   void commit(const Candidate& c, int32_t* slots = nullptr, bool counted = true);
   void count(const Candidate& c);
   bool any_valid_ = false;            // finish_plan accepts every valid option (improve_tet_pair)
+  bool restoring_ = false;            // finish_plan plans an undo: no policy, no orientation test
   std::vector<Candidate> trial_;      // improve_tet_pair's first operations (allocated on first use)
   std::vector<int32_t> around_;       // improve_tet_pair's tets near t
 

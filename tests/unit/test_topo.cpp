@@ -769,3 +769,68 @@ TEST(Topo, DihedralMeasureDeferralIsALowerBound) {
   EXPECT_GT(deferred_tets, 0);
   EXPECT_GT(below_tets, 0);
 }
+
+TEST(Topo, PairSearchUndoesTrialsAroundAnInvertedTet) {
+  // An inverted tet that stays (its vertex is required): trials that replace
+  // it must be undone to it, inverted as it was, not refused as an invalid
+  // plan (which threw before) — and a pair may never create a non-positive tet.
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 4;
+  bo.jitter = 0.3;
+  bo.seed = 4;
+  TetMesh m = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(m).ok());
+  int32_t v = -1;
+  for (int32_t u = 0; u < m.nv() && v < 0; ++u)
+    if (!m.vert_constrained[u]) v = u;
+  ASSERT_GE(v, 0);
+  // Push v through the opposite face of one tet of its star.
+  const int32_t t0 = *m.star_begin(v);
+  const int32_t* tv = m.tet(t0);
+  int lv = 0;
+  while (tv[lv] != v) ++lv;
+  const double* a = m.point(tv[kFaceVertex[lv][0]]);
+  const double* b = m.point(tv[kFaceVertex[lv][1]]);
+  const double* c = m.point(tv[kFaceVertex[lv][2]]);
+  for (int k = 0; k < 3; ++k) m.point(v)[k] = -0.2 * m.point(v)[k] + 0.4 * (a[k] + b[k] + c[k]);
+  m.required_vertices.push_back(v);
+  ASSERT_TRUE(build_topology(m).ok());
+  const std::vector<int32_t> bad0 = [&] {
+    std::vector<int32_t> out;
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      const int32_t* q = m.tet(t);
+      if (orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) != Sign::Positive) out.push_back(t);
+    }
+    return out;
+  }();
+  ASSERT_FALSE(bad0.empty());
+  const Snapshot s = snap(m);
+  int refused = 0;
+  {
+    TopoEditor ed(m, {});
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      if (!ed.alive(t)) continue;
+      const std::vector<int32_t> tets0 = m.tets;
+      TopoResult r = TopoResult::NotApplicable;
+      ASSERT_NO_THROW(r = ed.improve_tet_pair(t));
+      if (r != TopoResult::Applied) {
+        ++refused;
+        for (size_t i = 0; i < tets0.size(); ++i) ASSERT_EQ(m.tets[i], tets0[i]) << i;
+      }
+    }
+    ed.finish();
+  }
+  EXPECT_GT(refused, 0);
+  int bad1 = 0;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* q = m.tet(t);
+    bad1 += orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) != Sign::Positive;
+  }
+  EXPECT_LE(bad1, static_cast<int>(bad0.size()));
+  const Snapshot after = snap(m);
+  EXPECT_EQ(s.constrained, after.constrained);
+  EXPECT_EQ(s.verts, after.verts);
+  ASSERT_EQ(s.volumes.size(), after.volumes.size());
+  for (size_t i = 0; i < s.volumes.size(); ++i)
+    EXPECT_NEAR(s.volumes[i].second, after.volumes[i].second, 1e-12 * std::fabs(s.volumes[i].second));
+}
