@@ -1549,10 +1549,11 @@ TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t 
           ++changed;
         } else if (stop_at_worst && ed.cached_alpha(t) <= worst) {
           // t is the worst tet (a commit raises the worst alpha of its
-          // cavity, so nothing fell below it): one wider search, first
-          // operations on every tet within two face steps (about 17 tets),
-          // and if that fails too the worst alpha cannot rise in this pass.
-          if (ed.improve_tet_pair(t, 2) != TopoResult::Applied) break;
+          // cavity, so nothing fell below it).  When only topology can help
+          // it (all four vertices constrained), one wider search: first
+          // operations on every tet within two face steps (about 17 tets).
+          // If that fails too, the worst alpha cannot rise in this pass.
+          if (m.tet_kind[t] != 4 || ed.improve_tet_pair(t, 2) != TopoResult::Applied) break;
           ++changed;
         }
       }

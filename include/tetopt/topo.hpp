@@ -376,9 +376,10 @@ TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log, std::vec
 /// o.threads); passes repeat, with the band above the new worst alpha, for
 /// o.passes passes or until a pass changes nothing or (stop_at_worst) no
 /// longer raises the worst alpha.  stop_at_worst also gives the worst tet of
-/// the mesh, when reach 1 fails on it, a search at reach 2 (about 17 tets),
-/// and ends the pass when that fails too: the rest of the pass could not
-/// raise the worst alpha.  Meant for the few worst tets
+/// the mesh, when reach 1 fails on it and it is all-boundary (kind 4: only
+/// topology can help it), a search at reach 2 (about 17 tets), and ends the
+/// pass when that fails too: the rest of the pass could not raise the worst
+/// alpha.  Meant for the few worst tets
 /// that flip_pass leaves: a visit costs about 100 flip_pass visits.  Alpha
 /// measure only; alpha_cache as above.
 TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t max_tets = -1,
