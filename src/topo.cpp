@@ -1450,6 +1450,19 @@ bool topology_current(const TetMesh& m) {
 
 enum class PassKind { AllBoundary, Quality };
 
+// The operation counters of an editor's session into a pass's result.
+void take_counts(const TopoStats& es, TopoStats& st) {
+  st.flip23 = es.flip23;
+  st.flip32 = es.flip32;
+  st.flip44 = es.flip44;
+  st.edge_removals = es.edge_removals;
+  st.multi_face_removals = es.multi_face_removals;
+  st.flip22 = es.flip22;
+  st.all_boundary_removed = es.all_boundary_removed;
+  st.pairs = es.pairs;
+  st.passes = es.passes;
+}
+
 int64_t count_kind4(const TetMesh& m, int threads) {
   return detail::parallel_reduce_blocks(
       m.nt(), threads, int64_t{0},
@@ -1502,15 +1515,7 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
     st.alpha_worst_after = ed.min_cached();
     ed.finish();
     st.kind4_after = count_kind4(m, o.threads);
-    const TopoStats& es = ed.stats();
-    st.flip23 = es.flip23;
-    st.flip32 = es.flip32;
-    st.flip44 = es.flip44;
-    st.edge_removals = es.edge_removals;
-    st.multi_face_removals = es.multi_face_removals;
-    st.flip22 = es.flip22;
-    st.all_boundary_removed = es.all_boundary_removed;
-    st.passes = es.passes;
+    take_counts(ed.stats(), st);
   }
   st.tets_after = m.nt();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -1571,15 +1576,7 @@ TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t 
     st.alpha_worst_after = ed.min_cached();
     ed.finish();
     st.kind4_after = count_kind4(m, o.threads);
-    const TopoStats& es = ed.stats();
-    st.flip23 = es.flip23;
-    st.flip32 = es.flip32;
-    st.flip44 = es.flip44;
-    st.edge_removals = es.edge_removals;
-    st.multi_face_removals = es.multi_face_removals;
-    st.flip22 = es.flip22;
-    st.pairs = es.pairs;
-    st.passes = es.passes;
+    take_counts(ed.stats(), st);
   }
   st.tets_after = m.nt();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
