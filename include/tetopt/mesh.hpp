@@ -18,6 +18,8 @@
 //   vert_constrained    1 when the vertex never moves
 //   tet_kind            number of constrained vertices, 0..4 (paper Fig. 1;
 //                       4 = "all boundary element")
+//   tri_keys            the listed triangles as ascending vertex triples, in
+//                       lexicographic order (lookup by binary search)
 //
 // Constrained entities (DESIGN.md): a face is constrained when it lies on one
 // tet, between tets of different refs or of different Gmsh entities (when the
@@ -88,6 +90,7 @@ struct TetMesh {
   std::vector<uint8_t> face_mask;      ///< nt, bit f: face f constrained
   std::vector<uint8_t> vert_constrained;  ///< nv
   std::vector<uint8_t> tet_kind;       ///< nt, 0..4 constrained vertices
+  std::vector<int32_t> tri_keys;       ///< 3 x ntri, sorted triples of tris (flattened)
   uint64_t topology_epoch = 0;         ///< bumped by every topology rebuild
 
   int32_t nv() const { return static_cast<int32_t>(xyz.size() / 3); }
@@ -150,8 +153,9 @@ Status refresh_topology(TetMesh& m, int32_t first_new, int threads = 1);
 /// of the passes does.  Same permutation for every thread count.
 void sort_tets_spatially(TetMesh& m, int threads = 1);
 
-/// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date).
-void build_vertex_tets(TetMesh& m);
+/// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date);
+/// the same CSR for every thread count (0 = all cores).
+void build_vertex_tets(TetMesh& m, int threads = 1);
 
 /// Deletes the vertices listed in `drop` (ids, any order, duplicates
 /// allowed) and renumbers the others in their order: xyz, vert_ref,
@@ -171,10 +175,13 @@ Status build_adjacency(TetMesh& m, int threads = 1);
 /// smallest vertex and sorted); validate() compares against it.
 Status build_adjacency_sorted(TetMesh& m, int threads = 1);
 
-/// Recomputes face_mask, vert_constrained and tet_kind from adj, refs and the
+/// Recomputes face_mask, vert_constrained, tet_kind and tri_keys from adj, refs and the
 /// listed entities.  Requires adj and the vertex stars (build_vertex_tets),
 /// as build_topology leaves them.
 void classify(TetMesh& m, int threads = 1);
+
+/// TetMesh::tri_keys of `tris` (classify builds the mesh's own).
+void build_tri_keys(const std::vector<int32_t>& tris, std::vector<int32_t>& keys);
 
 /// Levels of validate(): Cheap checks sizes and ranges; Full also checks
 /// adjacency symmetry, manifoldness and exact orientation of every tet.

@@ -320,7 +320,8 @@ class TopoEditor {
   std::vector<uint32_t> vstamp_;  // per vertex: epoch of the last commit touching it
   uint32_t stamp_ = 1;
   std::vector<uint64_t> listed_edges_;
-  std::vector<int32_t> listed_tris_;  // sorted triples, flattened
+  std::vector<int32_t> own_tri_keys_;  // when the mesh's tri_keys are not built
+  const std::vector<int32_t>* listed_tris_ = nullptr;  // sorted triples, flattened (TetMesh::tri_keys)
   Candidate* cand_ = nullptr;         // two scratch candidates (current, best)
   Candidate* best_ = nullptr;
   TopoStats stats_;

@@ -3,6 +3,7 @@
 // of a bad mesh, and a whole improve() run.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -72,6 +73,61 @@ TEST(Parallel, TopologyIsTheSameForEveryThreadCount) {
   for (uint8_t c : b.vert_constrained) constrained += c;
   EXPECT_GT(constrained, 0);
   EXPECT_LT(constrained, b.nv());
+}
+
+// The vertex->tet CSR is built from per-part counts when threads > 1
+// (mesh.cpp, star_csr): every star must still list exactly the tets holding
+// the vertex, in ascending order, for every thread count (parts of 2, 3, 4
+// tet ranges; 3 cuts the tets unevenly).
+TEST(Parallel, VertexStarsAreTheSerialOnesForEveryThreadCount) {
+  TetMesh ref = jittered_box();
+  ASSERT_GE(ref.tets.size(), size_t{1} << 16);  // large enough for the parallel path
+  build_vertex_tets(ref, 1);
+  // Independent: the stars from a plain scan.
+  std::vector<std::vector<int32_t>> star(static_cast<size_t>(ref.nv()));
+  for (int32_t t = 0; t < ref.nt(); ++t)
+    for (int k = 0; k < 4; ++k) star[ref.tets[4 * static_cast<size_t>(t) + k]].push_back(t);
+  for (int32_t v = 0; v < ref.nv(); ++v)
+    ASSERT_EQ(std::vector<int32_t>(ref.star_begin(v), ref.star_end(v)), star[v]) << v;
+  for (int threads : {2, 3, 4, 0}) {
+    TetMesh m = jittered_box();
+    build_vertex_tets(m, threads);
+    EXPECT_EQ(m.vt_offsets, ref.vt_offsets) << threads;
+    EXPECT_EQ(m.vt_tets, ref.vt_tets) << threads;
+  }
+}
+
+// tri_keys (built by classify) are the listed triangles, each sorted, in
+// lexicographic order; compact_vertices renumbers them and keeps the order.
+TEST(Parallel, TriangleKeysFollowTheListedTriangles) {
+  TetMesh m = jittered_box();
+  ASSERT_TRUE(build_topology(m, 2));
+  ASSERT_GT(m.ntri(), 0);
+  auto expected = [](const TetMesh& x) {
+    std::vector<std::array<int32_t, 3>> k;
+    for (int32_t i = 0; i < x.ntri(); ++i) {
+      std::array<int32_t, 3> t{x.tris[3 * i], x.tris[3 * i + 1], x.tris[3 * i + 2]};
+      std::sort(t.begin(), t.end());
+      k.push_back(t);
+    }
+    std::sort(k.begin(), k.end());
+    std::vector<int32_t> flat;
+    for (const auto& t : k) flat.insert(flat.end(), t.begin(), t.end());
+    return flat;
+  };
+  EXPECT_EQ(m.tri_keys, expected(m));
+  // A copy with an extra unused vertex 0 (every other id one higher) must
+  // compact back to the original ids, tri_keys included.
+  TetMesh n = m;
+  n.xyz.insert(n.xyz.begin(), {9.0, 9.0, 9.0});  // new vertex 0, every id + 1
+  for (auto* ids : {&n.tets, &n.tris, &n.edges, &n.required_vertices, &n.corners, &n.tri_keys})
+    for (int32_t& v : *ids) ++v;
+  if (!n.vert_ref.empty()) n.vert_ref.insert(n.vert_ref.begin(), 0);
+  if (!n.vert_constrained.empty()) n.vert_constrained.insert(n.vert_constrained.begin(), 0);
+  n.vt_offsets.clear();
+  ASSERT_TRUE(compact_vertices(n, {0}));
+  EXPECT_EQ(n.tris, m.tris);
+  EXPECT_EQ(n.tri_keys, m.tri_keys);
 }
 
 TEST(Parallel, FirstErrorIsTheSerialOne) {
