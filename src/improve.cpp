@@ -312,7 +312,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
   InvariantSnapshot snap;
   if (opt.check_invariants) {
     const auto tc = Clock::now();
-    snap = capture_invariants(m);
+    snap = capture_invariants(m, opt.threads);
     rep.seconds_check += since(tc);
   }
   // Inverted or flat input tets: untangle first by moving free vertices; the
@@ -335,7 +335,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
 
   if (opt.check_invariants) {
     const auto tc = Clock::now();
-    Status s = check_invariants(m, snap);
+    Status s = check_invariants(m, snap, opt.threads);
     rep.seconds_check += since(tc);
     rep.invariants_checked = true;
     rep.invariants_ok = s.ok();

@@ -5,29 +5,36 @@
 #include <cmath>
 #include <cstring>
 
+#include "detail/parallel.hpp"
 #include "tetopt/predicates.hpp"
 
 namespace tetopt {
 
 namespace {
-std::vector<std::array<int32_t, 5>> constrained_faces(const TetMesh& m) {
+std::vector<std::array<int32_t, 5>> constrained_faces(const TetMesh& m, int threads) {
   std::vector<std::array<int32_t, 5>> out;
-  for (int32_t t = 0; t < m.nt(); ++t)
-    for (int f = 0; f < 4; ++f) {
-      if (!(m.face_mask[t] >> f & 1)) continue;
-      const int32_t n = m.adj[4 * t + f];
-      // An interior constrained face is seen from both sides: keep it once,
-      // from the side with the smaller (ref, tet) so refs are ordered.
-      if (n >= 0) {
-        const int32_t r0 = m.tet_ref[t], r1 = m.tet_ref[n / 4];
-        if (r0 > r1 || (r0 == r1 && t > n / 4)) continue;
-      }
-      std::array<int32_t, 5> k{};
-      face_key(m, t, f, k.data());
-      k[3] = m.tet_ref[t];
-      k[4] = n >= 0 ? m.tet_ref[n / 4] : -1;
-      out.push_back(k);
-    }
+  // Per block of tets, then the blocks in order (then sorted anyway).
+  for (const auto& part : detail::parallel_map_blocks(m.nt(), threads, [&](int64_t b, int64_t e) {
+         std::vector<std::array<int32_t, 5>> found;
+         for (auto t = static_cast<int32_t>(b); t < e; ++t)
+           for (int f = 0; f < 4; ++f) {
+             if (!(m.face_mask[t] >> f & 1)) continue;
+             const int32_t n = m.adj[4 * t + f];
+             // An interior constrained face is seen from both sides: keep it
+             // once, from the side with the smaller (ref, tet) so refs are ordered.
+             if (n >= 0) {
+               const int32_t r0 = m.tet_ref[t], r1 = m.tet_ref[n / 4];
+               if (r0 > r1 || (r0 == r1 && t > n / 4)) continue;
+             }
+             std::array<int32_t, 5> k{};
+             face_key(m, t, f, k.data());
+             k[3] = m.tet_ref[t];
+             k[4] = n >= 0 ? m.tet_ref[n / 4] : -1;
+             found.push_back(k);
+           }
+         return found;
+       }))
+    out.insert(out.end(), part.begin(), part.end());
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -59,18 +66,15 @@ bool surely_positive(const double* a, const double* b, const double* c, const do
 }
 }  // namespace
 
-std::vector<int32_t> nonpositive_tets(const TetMesh& m) {
-  std::vector<int32_t> out;
-  for (int32_t t = 0; t < m.nt(); ++t) {
-    const int32_t* v = m.tet(t);
+std::vector<int32_t> nonpositive_tets(const TetMesh& m, int threads) {
+  return detail::parallel_select(m.nt(), threads, [&](int64_t t) {
+    const int32_t* v = m.tet(static_cast<int32_t>(t));
     const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
-    if (surely_positive(a, b, c, d)) continue;
-    if (orient3d(a, b, c, d) != Sign::Positive) out.push_back(t);
-  }
-  return out;
+    return !surely_positive(a, b, c, d) && orient3d(a, b, c, d) != Sign::Positive;
+  });
 }
 
-InvariantSnapshot capture_invariants(const TetMesh& m) {
+InvariantSnapshot capture_invariants(const TetMesh& m, int threads) {
   InvariantSnapshot s;
   s.nv = m.nv();
   for (int32_t v = 0; v < m.nv(); ++v)
@@ -78,11 +82,11 @@ InvariantSnapshot capture_invariants(const TetMesh& m) {
       s.vertices.push_back(v);
       s.coords.insert(s.coords.end(), m.point(v), m.point(v) + 3);
     }
-  s.faces = constrained_faces(m);
-  s.region_volume = region_volumes(m);
+  s.faces = constrained_faces(m, threads);
+  s.region_volume = region_volumes(m, threads);
   s.tris = m.tris;
   s.tri_ref = m.tri_ref;
-  const std::vector<int32_t> bad = nonpositive_tets(m);
+  const std::vector<int32_t> bad = nonpositive_tets(m, threads);
   s.nonpositive = static_cast<int64_t>(bad.size());
   for (int32_t t : bad) s.tangled_vertices.insert(s.tangled_vertices.end(), m.tet(t), m.tet(t) + 4);
   std::sort(s.tangled_vertices.begin(), s.tangled_vertices.end());
@@ -91,7 +95,7 @@ InvariantSnapshot capture_invariants(const TetMesh& m) {
   return s;
 }
 
-Status check_invariants(const TetMesh& m, const InvariantSnapshot& b) {
+Status check_invariants(const TetMesh& m, const InvariantSnapshot& b, int threads) {
   auto fail = [](const std::string& what) { return Status::error(ErrorCode::Invariant, what); };
   // Vertex insertion (insert.hpp) appends free vertices: the original ids keep
   // their meaning, so only a shrinking count or a constrained newcomer fails.
@@ -105,7 +109,7 @@ Status check_invariants(const TetMesh& m, const InvariantSnapshot& b) {
   if (m.tris != b.tris || m.tri_ref != b.tri_ref) return fail("listed boundary triangles or their refs changed");
   // Orientation: no tet may become inverted or flat outside the input's own
   // tangles, and their number may not grow (see the header).
-  const std::vector<int32_t> bad = nonpositive_tets(m);
+  const std::vector<int32_t> bad = nonpositive_tets(m, threads);
   const auto tangled = [&](int32_t v) {
     return std::binary_search(b.tangled_vertices.begin(), b.tangled_vertices.end(), v);
   };
@@ -118,14 +122,14 @@ Status check_invariants(const TetMesh& m, const InvariantSnapshot& b) {
   if (static_cast<int64_t>(bad.size()) > b.nonpositive)
     return fail("inverted or flat tets grew from " + std::to_string(b.nonpositive) + " to " +
                 std::to_string(bad.size()));
-  const auto faces = constrained_faces(m);
+  const auto faces = constrained_faces(m, threads);
   if (faces != b.faces) {
     size_t lost = 0;
     for (const auto& f : b.faces) lost += !std::binary_search(faces.begin(), faces.end(), f);
     return fail("constrained faces changed: " + std::to_string(lost) + " of " + std::to_string(b.faces.size()) +
                 " lost, " + std::to_string(faces.size() + lost - b.faces.size()) + " new");
   }
-  const auto vol = region_volumes(m);
+  const auto vol = region_volumes(m, threads);
   double total = 0;
   for (const auto& rv : b.region_volume) total += std::fabs(rv.second);
   if (vol.size() != b.region_volume.size()) return fail("the set of regions changed");

@@ -255,24 +255,32 @@ Status check_duplicates(const TetMesh& m, int threads);
 // it is a listed triangle: each triangle is looked up in the star of its
 // first vertex (stars must be built).  touched (optional, per vertex): skip
 // triangles with a vertex outside it.  Empty when the mesh lists none.
-std::vector<uint8_t> listed_faces(const TetMesh& m, int32_t first_tet, const std::vector<uint8_t>* touched) {
+std::vector<uint8_t> listed_faces(const TetMesh& m, int32_t first_tet, const std::vector<uint8_t>* touched,
+                                  int threads) {
   std::vector<uint8_t> listed;
   if (m.tris.empty()) return listed;
   listed.assign(4 * static_cast<size_t>(m.nt() - first_tet), 0);
-  for (int32_t i = 0; i < m.ntri(); ++i) {
-    const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
-    if (touched && (!(*touched)[a] || !(*touched)[b] || !(*touched)[c])) continue;
-    for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
-      if (*it < first_tet) continue;
-      const int32_t* v = m.tet(*it);
-      int has = 0, other = -1;
-      for (int k = 0; k < 4; ++k) {
-        if (v[k] == a || v[k] == b || v[k] == c) ++has;
-        else other = k;
-      }
-      if (has == 3 && other >= 0) listed[4 * static_cast<size_t>(*it - first_tet) + other] = 1;
-    }
-  }
+  // Triangles in parallel blocks, each listing the faces it found; marked
+  // after (a triangle listed twice finds the same faces).
+  for (const std::vector<size_t>& part : detail::parallel_map_blocks(m.ntri(), threads, [&](int64_t b0, int64_t e0) {
+         std::vector<size_t> found;
+         for (auto i = static_cast<int32_t>(b0); i < e0; ++i) {
+           const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
+           if (touched && (!(*touched)[a] || !(*touched)[b] || !(*touched)[c])) continue;
+           for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
+             if (*it < first_tet) continue;
+             const int32_t* v = m.tet(*it);
+             int has = 0, other = -1;
+             for (int k = 0; k < 4; ++k) {
+               if (v[k] == a || v[k] == b || v[k] == c) ++has;
+               else other = k;
+             }
+             if (has == 3 && other >= 0) found.push_back(4 * static_cast<size_t>(*it - first_tet) + other);
+           }
+         }
+         return found;
+       }))
+    for (const size_t f : part) listed[f] = 1;
   return listed;
 }
 // face_mask of tet t: bit f set when face f is on the boundary, between two
@@ -494,7 +502,7 @@ void classify(TetMesh& m, int threads) {
   // Listed triangles are constrained faces: mark the face of every tet
   // holding one, found in the star of its first vertex (a binary search per
   // interior face was 60% of this function on flange_large).
-  const std::vector<uint8_t> listed = listed_faces(m, 0, nullptr);
+  const std::vector<uint8_t> listed = listed_faces(m, 0, nullptr, threads);
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
   // Face masks in parallel (each tet writes its own), then the vertices of
   // the constrained faces serially (few, and shared between tets).
@@ -623,7 +631,7 @@ Status refresh_topology(TetMesh& m, int32_t first_new, int threads) {
   m.face_mask.resize(static_cast<size_t>(nt));
   m.tet_kind.resize(static_cast<size_t>(nt));
   const size_t nnew = static_cast<size_t>(nt - first_new);
-  const std::vector<uint8_t> listed = listed_faces(m, first_new, &touched);
+  const std::vector<uint8_t> listed = listed_faces(m, first_new, &touched, threads);
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
   detail::parallel_for_each(static_cast<int64_t>(nnew), threads, [&](int64_t i) {
     const auto t = static_cast<int32_t>(first_new + i);
@@ -679,15 +687,33 @@ double tet_volume(const TetMesh& m, int32_t t) {
   return tet_signed_volume(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]));
 }
 
-std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m) {
-  std::map<int32_t, std::pair<double, double>> acc;  // Neumaier sum per ref
-  for (int32_t t = 0; t < m.nt(); ++t) {
-    auto& [s, c] = acc[m.tet_ref[t]];
-    const double x = tet_volume(m, t);
+std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m, int threads) {
+  using Acc = std::map<int32_t, std::pair<double, double>>;  // Neumaier sum per ref
+  auto add = [](std::pair<double, double>& sc, double x) {
+    auto& [s, c] = sc;
     const double u = s + x;
     c += std::fabs(s) >= std::fabs(x) ? (s - u) + x : (x - u) + s;
     s = u;
-  }
+  };
+  Acc acc;
+  for (const Acc& part : detail::parallel_map_blocks(m.nt(), threads, [&](int64_t b, int64_t e) {
+         Acc a;
+         std::pair<double, double>* cur = nullptr;  // tets of one ref come in runs
+         int32_t cur_ref = 0;
+         for (int64_t t = b; t < e; ++t) {
+           const int32_t r = m.tet_ref[t];
+           if (!cur || r != cur_ref) {
+             cur = &a[r];
+             cur_ref = r;
+           }
+           add(*cur, tet_volume(m, static_cast<int32_t>(t)));
+         }
+         return a;
+       }))
+    for (const auto& [r, sc] : part) {
+      add(acc[r], sc.first);
+      add(acc[r], sc.second);
+    }
   std::vector<std::pair<int32_t, double>> out;
   for (auto& [r, sc] : acc) out.emplace_back(r, sc.first + sc.second);
   return out;

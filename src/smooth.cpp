@@ -670,16 +670,34 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
     qa.resize(nt);
     detail::parallel_for_each(nt, threads, [&](int64_t t) { qa[t] = tet_alpha(m, static_cast<int32_t>(t)); });
   }
-  // f of eq. 3.4 from the cache: sum of w_T / alpha_T in tet order.
+  // f of eq. 3.4 from the cache: sum of w_T / alpha_T, per fixed block of
+  // tets and then over the blocks in order (the same bits for every thread
+  // count).  These O(nt) scans ran serially twice per pass: with the small
+  // active sets of mode best's later rounds they were most of a max-min
+  // pass at 2 threads (demo impeller: 0.033 s of 0.036).
   auto objective = [&] {
-    Sum s;
-    for (int32_t t = 0; t < nt; ++t) {
-      if (!(qa[t] > 0)) return kInf;
-      s.add(tet_weight(m, t, C) / qa[t]);
+    struct Part {
+      Sum s;
+      bool inf = false;
+    };
+    Sum total;
+    for (const Part& p : detail::parallel_map_blocks(nt, threads, [&](int64_t b, int64_t e) {
+           Part p;
+           for (int64_t t = b; t < e && !p.inf; ++t) {
+             if (!(qa[t] > 0)) p.inf = true;
+             else p.s.add(tet_weight(m, static_cast<int32_t>(t), C) / qa[t]);
+           }
+           return p;
+         })) {
+      if (p.inf) return kInf;
+      total.add(p.s.s);
+      total.add(p.s.c);
     }
-    return s.value();
+    return total.value();
   };
-  auto worst_of_cache = [&] { return nt ? *std::min_element(qa.begin(), qa.end()) : 0.0; };
+  auto worst_of_cache = [&] {
+    return nt ? detail::parallel_min(nt, threads, [&](int64_t t) { return qa[t]; }) : 0.0;
+  };
   st.objective_before = objective();
   st.worst_alpha_before = worst_of_cache();
 
@@ -728,8 +746,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
     active.clear();
     ++epoch;
     if (phase == 0) {
-      for (int32_t t = 0; t < nt; ++t) {
-        if (!(qa[t] < o.threshold)) continue;
+      for (const int32_t t : detail::parallel_select(nt, threads, [&](int64_t t) { return qa[t] < o.threshold; })) {
         const int32_t* tv = m.tet(t);
         for (int k = 0; k < 4; ++k)
           if (stamp[tv[k]] != epoch && is_free(tv[k])) {

@@ -385,7 +385,7 @@ int leader(const Args& a, int size) {
     return kExitInput;
   }
   const double t_read = now() - t_start;
-  const InvariantSnapshot snap = capture_invariants(g);
+  const InvariantSnapshot snap = capture_invariants(g, kRank0Threads);
   std::vector<uint8_t> used_in(static_cast<size_t>(g.nv()), 0);  // vertices a tet of IN uses
   for (int32_t v : g.tets) used_in[v] = 1;
   const QualityStats before = compute_stats(g, kRank0Threads);
@@ -581,7 +581,7 @@ int leader(const Args& a, int size) {
   double t_check = 0, t_write = 0, t_parts = 0;
   if (exit_code == kExitOk) {
     const double t = now();
-    s = check_invariants(g, snap);
+    s = check_invariants(g, snap, kRank0Threads);
     t_check = now() - t;
     if (!s) { failure = s.message; exit_code = kExitInvariant; }
   }

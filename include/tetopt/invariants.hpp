@@ -44,13 +44,15 @@ struct InvariantSnapshot {
 };
 
 /// Ids of the tets that are not Positive under the exact orient3d (ascending).
-std::vector<int32_t> nonpositive_tets(const TetMesh& m);
+/// threads: worker threads for the scans (0 = all cores); every result
+/// below is the same for every count.
+std::vector<int32_t> nonpositive_tets(const TetMesh& m, int threads = 1);
 
 /// Requires m's topology (build_topology).
-InvariantSnapshot capture_invariants(const TetMesh& m);
+InvariantSnapshot capture_invariants(const TetMesh& m, int threads = 1);
 
 /// Requires m's topology to be current.  Returns Invariant with a message
 /// naming the broken promise ("constrained vertex 17 moved", ...).
-Status check_invariants(const TetMesh& m, const InvariantSnapshot& before);
+Status check_invariants(const TetMesh& m, const InvariantSnapshot& before, int threads = 1);
 
 }  // namespace tetopt

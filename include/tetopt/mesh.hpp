@@ -198,7 +198,8 @@ void face_key(const TetMesh& m, int32_t t, int f, int32_t out[3]);
 double tet_volume(const TetMesh& m, int32_t t);
 
 /// Sum of signed tet volumes per region ref, as (ref, volume) sorted by ref,
-/// summed in a fixed order (deterministic).
-std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m);
+/// summed in a fixed order (fixed blocks of tets, then the blocks in order:
+/// the same bits for every thread count).
+std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m, int threads = 1);
 
 }  // namespace tetopt

@@ -263,7 +263,8 @@ class TopoEditor {
   /// cached_alpha() may write the cache and must not run concurrently.
   bool deferring() const { return !lb_.empty(); }
   /// Starts a new change epoch and returns it: every commit stamps the
-  /// vertices of its new tets with the current epoch.
+  /// vertices of its new tets, and every tet slot it writes (new, removed,
+  /// or an outer neighbour whose link it updates), with the current epoch.
   uint32_t next_stamp() { return ++stamp_; }
   /// True when a commit since epoch s (inclusive) created a tet sharing a
   /// vertex with live tet t, i.e. t's edge shells may have changed.
@@ -283,8 +284,8 @@ class TopoEditor {
  private:
   // Planning never writes the mesh or the editor (const; with a deferred
   // dihedral measure cached_alpha() fills the mutable cache).  `reads`, when
-  // given, receives vertices such that every tet the plan read has at least
-  // two of them among its vertices (see improve_tets).
+  // given, receives the id of every tet the plan read (vertices, links,
+  // masks, refs or cached measure; see improve_tets).
   TopoResult plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c, double bound,
                        std::vector<int32_t>* reads) const;
   TopoResult plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c,
@@ -318,6 +319,7 @@ class TopoEditor {
   std::vector<int32_t> free_;
   std::vector<int32_t> removed_;  // vertices removed by remove_vertex
   std::vector<uint32_t> vstamp_;  // per vertex: epoch of the last commit touching it
+  std::vector<uint32_t> tstamp_;  // per tet slot: epoch of the last commit writing it
   uint32_t stamp_ = 1;
   std::vector<uint64_t> listed_edges_;
   std::vector<int32_t> own_tri_keys_;  // when the mesh's tri_keys are not built

@@ -130,6 +130,46 @@ TEST(Parallel, TriangleKeysFollowTheListedTriangles) {
   EXPECT_EQ(n.tri_keys, m.tri_keys);
 }
 
+// The invariant proof scans tets in parallel blocks: the snapshot (faces,
+// region volumes to the bit, inverted tets) and the verdicts must be the
+// serial ones for every thread count.
+TEST(Parallel, InvariantProofIsTheSameForEveryThreadCount) {
+  TetMesh m = jittered_box(2);
+  ASSERT_TRUE(build_topology(m, 1));
+  // Invert two tets in different blocks by swapping two vertices (the
+  // connectivity is unchanged, only their orientation).
+  for (int32_t t : {int32_t{5}, int32_t{2 * detail::kBlock + 7}}) std::swap(m.tets[4 * t], m.tets[4 * t + 1]);
+  const InvariantSnapshot ref = capture_invariants(m, 1);
+  ASSERT_EQ(ref.nonpositive, 2);
+  ASSERT_EQ(ref.region_volume.size(), 2u);
+  for (int threads : {2, 3, 0}) {
+    const InvariantSnapshot s = capture_invariants(m, threads);
+    EXPECT_EQ(s.faces, ref.faces) << threads;
+    ASSERT_EQ(s.region_volume.size(), ref.region_volume.size());
+    for (size_t i = 0; i < s.region_volume.size(); ++i) {
+      EXPECT_EQ(s.region_volume[i].first, ref.region_volume[i].first);
+      EXPECT_TRUE(same_double(s.region_volume[i].second, ref.region_volume[i].second)) << threads;
+    }
+    EXPECT_EQ(s.tangled_vertices, ref.tangled_vertices) << threads;
+    EXPECT_EQ(nonpositive_tets(m, threads), nonpositive_tets(m, 1)) << threads;
+    EXPECT_TRUE(check_invariants(m, ref, threads)) << threads;
+  }
+  // A moved constrained vertex and a third inverted tet fail at every count.
+  TetMesh moved = m;
+  int32_t v = 0;
+  while (!moved.vert_constrained[v]) ++v;
+  moved.xyz[3 * static_cast<size_t>(v)] += 1e-3;
+  TetMesh flipped = m;
+  const int32_t t3 = 3 * detail::kBlock / 2;
+  std::swap(flipped.tets[4 * t3], flipped.tets[4 * t3 + 1]);
+  for (int threads : {1, 2, 3}) {
+    EXPECT_FALSE(check_invariants(moved, ref, threads)) << threads;
+    const Status s = check_invariants(flipped, ref, threads);
+    EXPECT_FALSE(s) << threads;
+    EXPECT_NE(s.message.find("inverted or flat"), std::string::npos) << s.message;
+  }
+}
+
 TEST(Parallel, FirstErrorIsTheSerialOne) {
   // Two defects far apart (different blocks): a duplicated tet near the end
   // and a third tet on an early face.  Every thread count names the same one.
