@@ -270,11 +270,20 @@ class Driver {
   }
   double worst() {
     ensure_cache();
-    return alpha_.empty() ? INFINITY : *std::min_element(alpha_.begin(), alpha_.end());
+    return alpha_.empty() ? INFINITY
+                          : detail::parallel_min(static_cast<int64_t>(alpha_.size()), threads_,
+                                                 [&](int64_t t) { return alpha_[t]; });
   }
   int64_t count_below(double gamma) {
     ensure_cache();
-    return std::count_if(alpha_.begin(), alpha_.end(), [&](double a) { return a < gamma; });
+    return detail::parallel_reduce_blocks(
+        static_cast<int64_t>(alpha_.size()), threads_, int64_t{0},
+        [&](int64_t b, int64_t e) {
+          int64_t k = 0;
+          for (int64_t t = b; t < e; ++t) k += alpha_[t] < gamma;
+          return k;
+        },
+        [](int64_t x, int64_t y) { return x + y; });
   }
 
   int64_t ops() const {
