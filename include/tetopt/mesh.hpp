@@ -12,7 +12,8 @@
 //
 // Derived topology, filled by build_topology() and valid until the
 // connectivity changes (topo passes rebuild it, see topology_epoch):
-//   vt_offsets/vt_tets  vertex -> tet CSR (counting sort, ascending tet ids)
+//   vt_offsets/vt_tets  vertex -> tet CSR (counting sort, ascending tet ids;
+//                       the same for every thread count)
 //   adj                 4*nt packed neighbour faces 4t'+f', or -1 (boundary)
 //   face_mask           per tet, bit f set when face f is constrained
 //   vert_constrained    1 when the vertex never moves
