@@ -34,6 +34,8 @@ bool stderr_is_tty();
 
 /// Parses a number option value; prints a usage error and returns false on failure.
 bool parse_double(const std::string& opt, const std::string& v, double& out);
+/// False, with a message on stderr, when option args[i] has no value after it.
+bool has_value(const std::vector<std::string>& args, size_t i, const std::string& opt);
 bool parse_int(const std::string& opt, const std::string& v, long long& out);
 
 }  // namespace tetopt_cli

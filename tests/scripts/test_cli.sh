@@ -34,6 +34,19 @@ check "generate writes a mesh" '[ -s "$W/box.mesh" ]'
 check "improve exits 0" '[ $rc -eq 0 ]'
 "$T" improve "$W/box.mesh" -o "$W/b.mesh" -q
 check "same input and seed give byte-identical output" 'cmp -s "$W/a.mesh" "$W/b.mesh"'
+# convert --threads: the parallel reader and writer give the serial bytes
+# (83k tets: sections larger than the reader's 1 MiB chunks).
+"$T" generate "$W/big.mesh" --cells 24 24 24 --jitter 0.3 --seed 3
+"$T" convert "$W/big.mesh" "$W/c1.mesh" --threads 1
+"$T" convert "$W/big.mesh" "$W/c2.mesh" --threads 2; rc=$?
+check "convert --threads 2 exits 0" '[ $rc -eq 0 ]'
+check "convert --threads 2 gives the bytes of 1 thread" 'cmp -s "$W/c1.mesh" "$W/c2.mesh" && [ -s "$W/c1.mesh" ]'
+# An option without its value: exit 1 and say so.
+"$T" quality "$W/box.mesh" --threads 2> "$W/err"; rc=$?
+check "option without a value exits 1" '[ $rc -eq 1 ]'
+check "option without a value is named" 'grep -q -- "--threads needs a value" "$W/err"'
+"$T" convert "$W/box.mesh" "$W/nv.mesh" --msh-version 2> "$W/err"; rc=$?
+check "convert option without a value exits 1, writes nothing" '[ $rc -eq 1 ] && [ ! -e "$W/nv.mesh" ] && grep -q "needs a value" "$W/err"'
 check "report is JSON with the invariant verdict" '/usr/bin/python3 -c "
 import json,sys; r=json.load(open(\"$W/r.json\"))
 assert r[\"boundary_unchanged\"][\"ok\"] is True
