@@ -276,14 +276,8 @@ class Driver {
   }
   int64_t count_below(double gamma) {
     ensure_cache();
-    return detail::parallel_reduce_blocks(
-        static_cast<int64_t>(alpha_.size()), threads_, int64_t{0},
-        [&](int64_t b, int64_t e) {
-          int64_t k = 0;
-          for (int64_t t = b; t < e; ++t) k += alpha_[t] < gamma;
-          return k;
-        },
-        [](int64_t x, int64_t y) { return x + y; });
+    return detail::parallel_count(static_cast<int64_t>(alpha_.size()), threads_,
+                                  [&](int64_t t) { return alpha_[t] < gamma; });
   }
 
   int64_t ops() const {

@@ -115,10 +115,10 @@ struct TopoEditor::Candidate {
 };
 
 namespace {
-// Copies the parts of a candidate that commit() and count() read (the arrays
-// only up to their used lengths: a candidate is about 14 KB, a 3-2 flip uses
-// a few hundred bytes of it).
-void copy_used(const TopoEditor::Candidate& s, TopoEditor::Candidate& d) {
+// The scalar fields of a candidate, between Candidate and PackedCandidate
+// (below) in either direction.
+template <class S, class D>
+void copy_header(const S& s, D& d) {
   d.kind = s.kind;
   d.size = s.size;
   d.n_old = s.n_old;
@@ -130,6 +130,13 @@ void copy_used(const TopoEditor::Candidate& s, TopoEditor::Candidate& d) {
   d.k4_new = s.k4_new;
   d.ref = s.ref;
   d.entity = s.entity;
+}
+
+// Copies the parts of a candidate that commit() and count() read (the arrays
+// only up to their used lengths: a candidate is about 14 KB, a 3-2 flip uses
+// a few hundred bytes of it).
+void copy_used(const TopoEditor::Candidate& s, TopoEditor::Candidate& d) {
+  copy_header(s, d);
   std::copy(s.old_tets, s.old_tets + s.n_old, d.old_tets);
   std::copy(&s.quad[0][0], &s.quad[0][0] + 4 * s.n_new, &d.quad[0][0]);
   std::copy(s.new_alpha, s.new_alpha + s.n_new, d.new_alpha);
@@ -152,17 +159,7 @@ struct PackedCandidate {
 };
 
 void pack(const TopoEditor::Candidate& s, PackedCandidate& d) {
-  d.kind = s.kind;
-  d.size = s.size;
-  d.n_old = s.n_old;
-  d.n_new = s.n_new;
-  d.n_outer = s.n_outer;
-  d.old_min = s.old_min;
-  d.new_min = s.new_min;
-  d.k4_old = s.k4_old;
-  d.k4_new = s.k4_new;
-  d.ref = s.ref;
-  d.entity = s.entity;
+  copy_header(s, d);
   d.ints.clear();
   d.ints.insert(d.ints.end(), s.old_tets, s.old_tets + s.n_old);
   d.ints.insert(d.ints.end(), &s.quad[0][0], &s.quad[0][0] + 4 * s.n_new);
@@ -174,17 +171,7 @@ void pack(const TopoEditor::Candidate& s, PackedCandidate& d) {
 }
 
 void unpack(const PackedCandidate& s, TopoEditor::Candidate& d) {
-  d.kind = s.kind;
-  d.size = s.size;
-  d.n_old = s.n_old;
-  d.n_new = s.n_new;
-  d.n_outer = s.n_outer;
-  d.old_min = s.old_min;
-  d.new_min = s.new_min;
-  d.k4_old = s.k4_old;
-  d.k4_new = s.k4_new;
-  d.ref = s.ref;
-  d.entity = s.entity;
+  copy_header(s, d);
   const int32_t* q = s.ints.data();
   std::copy(q, q + s.n_old, d.old_tets);
   q += s.n_old;
@@ -1524,14 +1511,7 @@ void take_counts(const TopoStats& es, TopoStats& st) {
 }
 
 int64_t count_kind4(const TetMesh& m, int threads) {
-  return detail::parallel_reduce_blocks(
-      m.nt(), threads, int64_t{0},
-      [&](int64_t b, int64_t e) {
-        int64_t k = 0;
-        for (int64_t t = b; t < e; ++t) k += m.tet_kind[t] == 4;
-        return k;
-      },
-      [](int64_t x, int64_t y) { return x + y; });
+  return detail::parallel_count(m.nt(), threads, [&](int64_t t) { return m.tet_kind[t] == 4; });
 }
 
 TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKind kind,

@@ -106,6 +106,19 @@ std::vector<int32_t> parallel_select(int64_t n, int threads, const Pred& pred) {
   return out;
 }
 
+/// The number of i in [0, n) with pred(i).
+template <class Pred>
+int64_t parallel_count(int64_t n, int threads, const Pred& pred) {
+  return parallel_reduce_blocks(
+      n, threads, int64_t{0},
+      [&](int64_t b, int64_t e) {
+        int64_t k = 0;
+        for (int64_t i = b; i < e; ++i) k += pred(i) ? 1 : 0;
+        return k;
+      },
+      [](int64_t x, int64_t y) { return x + y; });
+}
+
 /// min over i in [0, n) of f(i) (+infinity when n == 0).
 template <class F>
 double parallel_min(int64_t n, int threads, const F& f) {
