@@ -178,14 +178,60 @@ void merge(StatsPart& a, const StatsPart& b) {
   a.refs.insert(b.refs.begin(), b.refs.end());
 }
 
+// Per tet: alpha, mean ratio and radius ratio from one volume, one set of
+// face normals and one set of edge lengths (the expressions of alpha(),
+// mean_ratio() and radius_ratio() above, in the same order, so the same
+// bits), and the dihedral cosines from the same normals.
 void stats_block(const TetMesh& m, int32_t t0, int32_t t1, StatsPart& p) {
   QualityStats& s = p.s;
   const bool have_kind = static_cast<int32_t>(m.tet_kind.size()) == m.nt();
   int32_t last_ref = 0;
   for (int32_t t = t0; t < t1; ++t) {
     const int32_t* v = m.tet(t);
-    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
-    const double q = alpha(a, b, c, d);
+    const double* pt[4] = {m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3])};
+    const double *a = pt[0], *b = pt[1], *c = pt[2], *d = pt[3];
+    double eu[3], ev[3], ew[3], bc[3];
+    sub(b, a, eu); sub(c, a, ev); sub(d, a, ew);
+    cross(ev, ew, bc);
+    const double vol = dot(eu, bc) / 6.0;  // tet_signed_volume
+    double n[4][3], nl[4], area = 0;
+    for (int f = 0; f < 4; ++f) {
+      double e1[3], e2[3];
+      sub(pt[kFaceVertex[f][1]], pt[kFaceVertex[f][0]], e1);
+      sub(pt[kFaceVertex[f][2]], pt[kFaceVertex[f][0]], e2);
+      cross(e1, e2, n[f]);
+      nl[f] = norm(n[f]);
+      area += 0.5 * nl[f];
+    }
+    double l2max = 0, l2sum = 0;
+    for (int e = 0; e < 6; ++e) {
+      double u[3];
+      sub(pt[kEdgeVertex[e][1]], pt[kEdgeVertex[e][0]], u);
+      const double l2 = dot(u, u);
+      l2max = std::max(l2max, l2);
+      l2sum += l2;
+    }
+    double q = 0.0;  // alpha()
+    if (const double den = area * std::sqrt(l2max); den > 0) {
+      q = kSixSqrt6 * vol / den;
+      if (!std::isfinite(q)) q = 0.0;
+    }
+    double mr = 0.0;  // mean_ratio()
+    if (l2sum > 0) {
+      mr = 12.0 * std::cbrt(9.0 * vol * vol) / l2sum;
+      if (vol < 0) mr = -mr;
+    }
+    double rr = 0.0;  // radius_ratio()
+    if (const double avol = std::fabs(vol); avol > 0 && area > 0) {
+      double ca[3], ab[3], num[3];
+      cross(ew, eu, ca); cross(eu, ev, ab);
+      const double lu = dot(eu, eu), lv = dot(ev, ev), lw = dot(ew, ew);
+      for (int k = 0; k < 3; ++k) num[k] = lu * bc[k] + lv * ca[k] + lw * ab[k];
+      const double circum = norm(num) / (12.0 * avol);
+      const double in = 3.0 * avol / area;
+      rr = 3.0 * in / circum;
+      if (!std::isfinite(rr)) rr = 0.0;
+    }
     const int kind = have_kind ? m.tet_kind[t] : 0;
     s.kind_count[kind]++;
     p.all.add(q);
@@ -200,17 +246,6 @@ void stats_block(const TetMesh& m, int32_t t0, int32_t t1, StatsPart& p) {
     s.alpha_histogram[bin]++;
     // Dihedral cosines from the outward face normals (cheap); angles proper
     // (atan2, dihedral_angles) only for the extreme tets at the end.
-    double n[4][3], nl[4];
-    {
-      const double* pt[4] = {a, b, c, d};
-      for (int f = 0; f < 4; ++f) {
-        double e1[3], e2[3];
-        sub(pt[kFaceVertex[f][1]], pt[kFaceVertex[f][0]], e1);
-        sub(pt[kFaceVertex[f][2]], pt[kFaceVertex[f][0]], e2);
-        cross(e1, e2, n[f]);
-        nl[f] = norm(n[f]);
-      }
-    }
     bool small = false, large = false;
     for (int e = 0; e < 6; ++e) {
       const int k = kEdgeVertex[kEdgeOpposite[e]][0], l = kEdgeVertex[kEdgeOpposite[e]][1];
@@ -219,18 +254,19 @@ void stats_block(const TetMesh& m, int32_t t0, int32_t t1, StatsPart& p) {
       cs = std::clamp(cs, -1.0, 1.0);
       if (cs > p.cos_min_dih) { p.cos_min_dih = cs; p.min_dih_tet = t; }
       if (cs < p.cos_max_dih) { p.cos_max_dih = cs; p.max_dih_tet = t; }
-      // bin k holds angles in [10k, 10k+10): count thresholds cos(10j deg) >= cs
-      const int dbin = static_cast<int>(std::upper_bound(kBinCos.begin(), kBinCos.end(), cs,
-                                                        [](double x, double y) { return x > y; }) -
-                                       kBinCos.begin());
-      s.dihedral_histogram[std::min(17, dbin)]++;
+      // bin k holds angles in [10k, 10k+10): the number of bin edges
+      // cos(10j deg) >= cs (kBinCos decreases; a NaN cosine goes last).
+      int dbin = 0;
+      for (double edge : kBinCos) dbin += edge >= cs;
+      if (std::isnan(cs)) dbin = 17;
+      s.dihedral_histogram[dbin]++;
       small |= cs > kCos5;
       large |= cs < kCos175;
     }
     s.dihedral_below_5 += small;
     s.dihedral_above_175 += large;
-    s.mean_ratio_worst = std::min(s.mean_ratio_worst, mean_ratio(a, b, c, d));
-    s.radius_ratio_worst = std::min(s.radius_ratio_worst, radius_ratio(a, b, c, d));
+    s.mean_ratio_worst = std::min(s.mean_ratio_worst, mr);
+    s.radius_ratio_worst = std::min(s.radius_ratio_worst, rr);
     const int32_t r = m.tet_ref.empty() ? 0 : m.tet_ref[t];
     if (t == t0 || r != last_ref) p.refs.insert(r);
     last_ref = r;

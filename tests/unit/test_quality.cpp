@@ -103,3 +103,63 @@ TEST(Quality, StatsOnBoxMesh) {
   EXPECT_NEAR(s.dihedral_min, 45.0, 1e-9);
   EXPECT_NEAR(s.dihedral_max, 90.0, 1e-9);
 }
+
+// compute_stats measures every tet in one fused kernel (shared volume, face
+// normals, edge lengths); its extremes must be the per-tet functions' values
+// bit for bit, and its dihedral bins those of dihedral_angles(), on a mesh
+// with every kind of tet: jittered, one moved to flat, one inverted.
+TEST(Quality, StatsAreThePerTetMeasuresExactly) {
+  TetMesh m = make_box_mesh({.nx = 5, .ny = 4, .nz = 4, .jitter = 0.4, .seed = 7, .regions = 2});
+  ASSERT_TRUE(build_topology(m).ok());
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-0.02, 0.02);
+  for (double& x : m.xyz) x += u(rng);  // every vertex, so no angle sits on a bin edge
+  {  // tet 5 made exactly flat (its 4th vertex onto the plane of the first three)
+    int32_t* v = &m.tets[5 * 4];
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]);
+    double* d = &m.xyz[3 * static_cast<size_t>(v[3])];
+    for (int k = 0; k < 3; ++k) d[k] = a[k] + 0.25 * (b[k] - a[k]) + 0.5 * (c[k] - a[k]);
+  }
+  std::swap(m.tets[17 * 4], m.tets[17 * 4 + 1]);  // tet 17 inverted
+  double aw = INFINITY, mrw = INFINITY, rrw = INFINITY, dmin = INFINITY, dmax = -INFINITY;
+  int32_t worst = -1;
+  int64_t flat = 0, small = 0, large = 0;
+  std::array<int64_t, 18> hist{};
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
+    const double q = alpha(a, b, c, d);
+    if (q < aw) { aw = q; worst = t; }
+    flat += q <= 0;
+    mrw = std::min(mrw, mean_ratio(a, b, c, d));
+    rrw = std::min(rrw, radius_ratio(a, b, c, d));
+    double dh[6];
+    dihedral_angles(a, b, c, d, dh);
+    bool s5 = false, l175 = false;
+    for (double x : dh) {
+      hist[std::min(17, static_cast<int>(x / 10.0))]++;
+      dmin = std::min(dmin, x);
+      dmax = std::max(dmax, x);
+      s5 |= x < 5.0;
+      l175 |= x > 175.0;
+    }
+    small += s5;
+    large += l175;
+  }
+  for (int threads : {1, 2}) {
+    const QualityStats s = compute_stats(m, threads);
+    EXPECT_EQ(s.alpha_worst, aw);
+    EXPECT_EQ(s.worst_tet, worst);
+    EXPECT_LT(s.alpha_worst, 0.0);  // the inverted tet
+    EXPECT_EQ(s.inverted_or_flat, flat);
+    EXPECT_GE(flat, 2);
+    EXPECT_EQ(s.mean_ratio_worst, mrw);
+    EXPECT_EQ(s.radius_ratio_worst, rrw);
+    EXPECT_LT(s.radius_ratio_worst, 1e-12);  // the flat tet (flat up to rounding)
+    EXPECT_EQ(s.dihedral_histogram, hist);
+    EXPECT_EQ(s.dihedral_below_5, small);
+    EXPECT_EQ(s.dihedral_above_175, large);
+    EXPECT_NEAR(s.dihedral_min, dmin, 1e-9);
+    EXPECT_NEAR(s.dihedral_max, dmax, 1e-9);
+  }
+}
