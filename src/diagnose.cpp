@@ -82,73 +82,116 @@ struct PairHash {
   }
 };
 
+// The search box: apexes farther than kReach longest edges never matter for
+// alpha, and for the dihedral objectives, whose supremum can lie at infinity
+// (a right triangle's max dihedral tends to 90 degrees as the apex rises), it
+// keeps every search finite.
+constexpr double kReach = 4.0;
+
+bool in_reach(const Vec3& p) {
+  return std::fabs(p[0]) <= kReach && std::fabs(p[1]) <= kReach && std::fabs(p[2]) <= kReach;
+}
+
+// The cosines of the extreme dihedral angles of the tet (frame triangle, d):
+// dihedral at edge (i,j) = pi - angle between the outward normals of the two
+// faces holding it.  False for a flat tet (d on the plane or a zero normal).
+bool dihedral_cosines(const Frame& f, const double d[3], double& cmin, double& cmax) {
+  if (d[2] == 0) return false;
+  const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
+  const double* corner[4] = {a, b, c, d};
+  double nrm[4][3];
+  for (int k = 0; k < 4; ++k) {
+    const double* q0 = corner[kFaceVertex[k][0]];
+    const double* q1 = corner[kFaceVertex[k][1]];
+    const double* q2 = corner[kFaceVertex[k][2]];
+    const double u[3] = {q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]};
+    const double v[3] = {q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2]};
+    double* n = nrm[k];
+    n[0] = u[1] * v[2] - u[2] * v[1];
+    n[1] = u[2] * v[0] - u[0] * v[2];
+    n[2] = u[0] * v[1] - u[1] * v[0];
+    const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(l > 0)) return false;
+    n[0] /= l; n[1] /= l; n[2] /= l;
+  }
+  cmin = 2;
+  cmax = -2;
+  for (int e = 0; e < 6; ++e) {
+    const int o = kEdgeOpposite[e];
+    const double* n1 = nrm[kEdgeVertex[o][0]];
+    const double* n2 = nrm[kEdgeVertex[o][1]];
+    const double cs = -(n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]);
+    cmin = std::min(cmin, cs);
+    cmax = std::max(cmax, cs);
+  }
+  return true;
+}
+
+constexpr double kDeg = 180.0 / M_PI;
+
 // The objective to maximise at local apex p (z folded to the positive side).
 struct Objective {
   const Frame& f;
   ApexObjective obj;
   double operator()(const Vec3& p) const {
-    // The search box: apexes farther than kReach longest edges never matter
-    // for alpha, and for the dihedral objectives, whose supremum can lie at
-    // infinity (a right triangle's max dihedral tends to 90 degrees as the apex
-    // rises), it keeps every search finite.
-    constexpr double kReach = 4.0;
-    if (!(std::fabs(p[0]) <= kReach && std::fabs(p[1]) <= kReach && std::fabs(p[2]) <= kReach))
-      return -std::numeric_limits<double>::infinity();
-    const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
+    if (!in_reach(p)) return -std::numeric_limits<double>::infinity();
     const double d[3] = {p[0], p[1], std::fabs(p[2])};
-    if (obj == ApexObjective::Alpha) return alpha(a, b, c, d);
-    if (d[2] == 0) return obj == ApexObjective::MinDihedral ? 0.0 : -180.0;
-    // Dihedral at edge (i,j) = pi - angle between the outward normals of the
-    // two faces holding it; only the extreme one needs an acos.
-    const double* corner[4] = {a, b, c, d};
-    double nrm[4][3];
-    for (int k = 0; k < 4; ++k) {
-      const double* q0 = corner[kFaceVertex[k][0]];
-      const double* q1 = corner[kFaceVertex[k][1]];
-      const double* q2 = corner[kFaceVertex[k][2]];
-      const double u[3] = {q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]};
-      const double v[3] = {q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2]};
-      double* n = nrm[k];
-      n[0] = u[1] * v[2] - u[2] * v[1];
-      n[1] = u[2] * v[0] - u[0] * v[2];
-      n[2] = u[0] * v[1] - u[1] * v[0];
-      const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-      if (!(l > 0)) return obj == ApexObjective::MinDihedral ? 0.0 : -180.0;
-      n[0] /= l; n[1] /= l; n[2] /= l;
+    if (obj == ApexObjective::Alpha) {
+      const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
+      return alpha(a, b, c, d);
     }
-    double cmin = 2, cmax = -2;  // cosines of the dihedral angles
-    for (int e = 0; e < 6; ++e) {
-      const int o = kEdgeOpposite[e];
-      const double* n1 = nrm[kEdgeVertex[o][0]];
-      const double* n2 = nrm[kEdgeVertex[o][1]];
-      const double cs = -(n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2]);
-      cmin = std::min(cmin, cs);
-      cmax = std::max(cmax, cs);
-    }
-    const double kDeg = 180.0 / M_PI;
+    double cmin, cmax;
+    if (!dihedral_cosines(f, d, cmin, cmax)) return obj == ApexObjective::MinDihedral ? 0.0 : -180.0;
     if (obj == ApexObjective::MinDihedral) return std::acos(std::clamp(cmax, -1.0, 1.0)) * kDeg;
     return -std::acos(std::clamp(cmin, -1.0, 1.0)) * kDeg;
   }
 };
 
+// All three objectives at p, in the order Alpha, MinDihedral, MaxDihedral:
+// the values of Objective{f, obj}(p), from one set of face normals.
+void objectives_at(const Frame& f, const Vec3& p, double out[3]) {
+  if (!in_reach(p)) {
+    out[0] = out[1] = out[2] = -std::numeric_limits<double>::infinity();
+    return;
+  }
+  const double d[3] = {p[0], p[1], std::fabs(p[2])};
+  const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
+  out[0] = alpha(a, b, c, d);
+  double cmin, cmax;
+  if (!dihedral_cosines(f, d, cmin, cmax)) {
+    out[1] = 0.0;
+    out[2] = -180.0;
+    return;
+  }
+  out[1] = std::acos(std::clamp(cmax, -1.0, 1.0)) * kDeg;
+  out[2] = -std::acos(std::clamp(cmin, -1.0, 1.0)) * kDeg;
+}
+
 // Closed-form candidate apexes: above the centroid, the incentre and (when
 // inside the triangle) the circumcentre, at a few heights.
-std::vector<Vec3> candidates(const Frame& f) {
-  std::vector<Vec3> pts;
+struct Candidates {
+  std::array<Vec3, 9> p;
+  int n = 0;
+  const Vec3* begin() const { return p.data(); }
+  const Vec3* end() const { return p.data() + n; }
+};
+Candidates candidates(const Frame& f) {
+  Candidates pts;
   const double la = std::hypot(f.bx - f.cx, f.cy), lb = std::hypot(f.cx, f.cy), lc = f.bx;  // opposite a, b, c
   const double per = la + lb + lc;
   const double gx = (f.bx + f.cx) / 3, gy = f.cy / 3;
   const double ix = (lb * f.bx + lc * f.cx) / per, iy = (lc * f.cy) / per;
-  std::vector<std::array<double, 2>> base = {{gx, gy}, {ix, iy}};
+  std::array<std::array<double, 2>, 3> base = {{{gx, gy}, {ix, iy}, {0, 0}}};
+  int nb = 2;
   // circumcentre of (0,0), (bx,0), (cx,cy), kept when inside (acute triangle)
   const double ox = f.bx / 2;
   const double oy = (f.cx * f.cx + f.cy * f.cy - f.bx * f.cx) / (2 * f.cy);
   const double lam_c = oy / f.cy, lam_b = (ox - lam_c * f.cx) / f.bx;
-  if (lam_c > 0 && lam_b > 0 && lam_b + lam_c < 1) base.push_back({ox, oy});
+  if (lam_c > 0 && lam_b > 0 && lam_b + lam_c < 1) base[nb++] = {ox, oy};
   const double mean = per / 3;
-  for (const auto& q : base)
+  for (int i = 0; i < nb; ++i)
     for (double h : {0.35, 0.6, 0.8165})
-      pts.push_back({q[0], q[1], h * mean});
+      pts.p[pts.n++] = {base[i][0], base[i][1], h * mean};
   return pts;
 }
 
@@ -377,21 +420,43 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
     face_points(m, faces[i], p);
     double qa, qmin, qmax;
     achieved_on_face(m, faces[i], qa, qmin, qmax);
-    cheap[0][i] = std::max(qa, cheap_apex_value(p[0], p[1], p[2], ApexObjective::Alpha));
-    cheap[1][i] = std::max(qmin, cheap_apex_value(p[0], p[1], p[2], ApexObjective::MinDihedral));
-    cheap[2][i] = -std::min(qmax, cheap_apex_value(p[0], p[1], p[2], ApexObjective::MaxDihedral));
+    // cheap_apex_value for the three objectives, sharing the frame and the
+    // normals at each candidate.
+    const Frame f(p[0], p[1], p[2]);
+    double best[3];
+    if (f.degenerate) {
+      best[0] = degenerate_value(ApexObjective::Alpha);
+      best[1] = degenerate_value(ApexObjective::MinDihedral);
+      best[2] = degenerate_value(ApexObjective::MaxDihedral);
+    } else {
+      best[0] = best[1] = best[2] = -std::numeric_limits<double>::infinity();
+      for (const Vec3& c : candidates(f)) {
+        double v[3];
+        objectives_at(f, c, v);
+        for (int k = 0; k < 3; ++k) best[k] = std::max(best[k], v[k]);
+      }
+      best[2] = to_public(ApexObjective::MaxDihedral, best[2]);
+    }
+    cheap[0][i] = std::max(qa, best[0]);
+    cheap[1][i] = std::max(qmin, best[1]);
+    cheap[2][i] = -std::min(qmax, best[2]);
   });
   std::vector<uint8_t> refined(nf, 0);
   const ApexObjective objs[3] = {ApexObjective::Alpha, ApexObjective::MinDihedral, ApexObjective::MaxDihedral};
   double result[3];
   size_t arg[3] = {0, 0, 0};
-  std::vector<size_t> order(nf);
+  std::vector<size_t> heap(nf);
   std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> cache[3];  // shape -> best value
   for (int o = 0; o < 3; ++o) {
-    std::iota(order.begin(), order.end(), size_t{0});
-    std::sort(order.begin(), order.end(), [&](size_t p, size_t q) {
-      return cheap[o][p] < cheap[o][q] || (cheap[o][p] == cheap[o][q] && p < q);
-    });
+    // The triangles by increasing cheap score (ties by index), taken from a
+    // heap: the loop below stops after the first few, so sorting all of them
+    // would be wasted.
+    auto after = [&](size_t p, size_t q) {  // p comes after q
+      return cheap[o][p] > cheap[o][q] || (cheap[o][p] == cheap[o][q] && p > q);
+    };
+    std::iota(heap.begin(), heap.end(), size_t{0});
+    std::make_heap(heap.begin(), heap.end(), after);
+    auto heap_end = heap.end();
     // Scores within `tol` of the current minimum are not refined: the bound
     // is exact to tol (1e-4 in alpha, 0.01 degree), which keeps meshes with
     // many congruent triangles (generated boxes) from refining them all.
@@ -404,7 +469,9 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
     constexpr size_t kDihedralExamined = 64;
     double cur = std::numeric_limits<double>::infinity();
     size_t examined = 0;
-    for (size_t i : order) {
+    while (heap_end != heap.begin()) {
+      std::pop_heap(heap.begin(), heap_end, after);
+      const size_t i = *--heap_end;
       if (cheap[o][i] >= cur - tol) break;  // achieved >= current minimum: cannot hold it
       if (o > 0 && examined++ >= kDihedralExamined) break;
       const double* p[3];
