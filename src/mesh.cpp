@@ -267,7 +267,12 @@ std::vector<uint8_t> listed_faces(const TetMesh& m, int32_t first_tet, const std
          for (auto i = static_cast<int32_t>(b0); i < e0; ++i) {
            const int32_t a = m.tris[3 * i], b = m.tris[3 * i + 1], c = m.tris[3 * i + 2];
            if (touched && (!(*touched)[a] || !(*touched)[b] || !(*touched)[c])) continue;
-           for (const int32_t* it = m.star_begin(a); it != m.star_end(a); ++it) {
+           // The tets holding the triangle are in the star of each of its
+           // vertices: scan the smallest.
+           int32_t s = a;
+           if (m.star_end(b) - m.star_begin(b) < m.star_end(s) - m.star_begin(s)) s = b;
+           if (m.star_end(c) - m.star_begin(c) < m.star_end(s) - m.star_begin(s)) s = c;
+           for (const int32_t* it = m.star_begin(s); it != m.star_end(s); ++it) {
              if (*it < first_tet) continue;
              const int32_t* v = m.tet(*it);
              int has = 0, other = -1;
@@ -400,8 +405,13 @@ bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std
   const int32_t nv = only ? static_cast<int32_t>(only->size()) : static_cast<int32_t>(off.size()) - 1;
   m.adj.resize(4 * static_cast<size_t>(nt));
   std::atomic<bool> ok{true};
+  // The faces whose smallest vertex is v, keyed by their other two vertices
+  // (packed in 64 bits); equal keys must end up next to each other (their
+  // order does not matter: two faces pair, more is an error).  Stars are
+  // small: insertion sort, std::sort for a large one.
   struct Entry {
-    int32_t b, c, face;
+    uint64_t key;
+    int32_t face;
   };
   detail::parallel_blocks(nv, threads, [&](int64_t vb, int64_t ve) {
     std::vector<Entry> ent;
@@ -414,15 +424,25 @@ bool adjacency_from_stars(TetMesh& m, const std::vector<int32_t>& off, const std
         for (int f = 0; f < 4; ++f) {
           int32_t k0 = tv[kFaceVertex[f][0]], k1 = tv[kFaceVertex[f][1]], k2 = tv[kFaceVertex[f][2]];
           sort3(k0, k1, k2);
-          if (k0 == v) ent.push_back({k1, k2, 4 * t + f});
+          if (k0 == v)
+            ent.push_back({static_cast<uint64_t>(static_cast<uint32_t>(k1)) << 32 | static_cast<uint32_t>(k2), 4 * t + f});
         }
       }
-      std::sort(ent.begin(), ent.end(), [](const Entry& x, const Entry& y) {
-        return x.b != y.b ? x.b < y.b : (x.c != y.c ? x.c < y.c : x.face < y.face);
-      });
+      if (ent.size() <= 128) {
+        for (size_t j = 1; j < ent.size(); ++j) {
+          const Entry x = ent[j];
+          size_t k = j;
+          for (; k > 0 && ent[k - 1].key > x.key; --k) ent[k] = ent[k - 1];
+          ent[k] = x;
+        }
+      } else {
+        std::sort(ent.begin(), ent.end(), [](const Entry& x, const Entry& y) {
+          return x.key != y.key ? x.key < y.key : x.face < y.face;
+        });
+      }
       for (size_t j = 0; j < ent.size();) {
         size_t k = j + 1;
-        while (k < ent.size() && ent[k].b == ent[j].b && ent[k].c == ent[j].c) ++k;
+        while (k < ent.size() && ent[k].key == ent[j].key) ++k;
         if (k - j > 2) { ok.store(false, std::memory_order_relaxed); return; }
         if (k - j == 2) {
           m.adj[ent[j].face] = ent[j + 1].face;
