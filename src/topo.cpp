@@ -306,15 +306,18 @@ double TopoEditor::deferred(int32_t t) const {
 }
 
 double TopoEditor::min_cached() const {
+  // A free slot's cached value is +inf (commit() sets it when it frees the
+  // slot), so the live tets need no test here: reading the tets' vertex
+  // array for it made this scan, called about 45 times a run, five times
+  // slower (0.067 s on the demo impeller at 1 thread).
   const int32_t nt = m_.nt();
-  if (lb_.empty())  // nothing deferred: a plain minimum over the live tets
-    return detail::parallel_min(nt, o_.threads,
-                                [&](int64_t t) { return alive(static_cast<int32_t>(t)) ? alpha_[t] : kInf; });
+  if (lb_.empty())  // nothing deferred: a plain minimum
+    return detail::parallel_min(nt, o_.threads, [&](int64_t t) { return alpha_[t]; });
   double lo = kInf;
   for (int32_t t = 0; t < nt; ++t)
-    if (alive(t) && alpha_[t] == alpha_[t]) lo = std::min(lo, alpha_[t]);
+    if (alpha_[t] == alpha_[t]) lo = std::min(lo, alpha_[t]);
   for (int32_t t = 0; t < nt; ++t)
-    if (alive(t) && alpha_[t] != alpha_[t] && lb_[t] < lo) lo = std::min(lo, deferred(t));
+    if (alpha_[t] != alpha_[t] && lb_[t] < lo) lo = std::min(lo, deferred(t));
   return lo;
 }
 

@@ -257,7 +257,8 @@ class TopoEditor {
     return deferred(t) < thr;
   }
   /// Smallest cached measure over the live tets (deferred entries are
-  /// computed only when their lower bound could beat the minimum).
+  /// computed only when their lower bound could beat the minimum; a free
+  /// slot's entry is +inf).
   double min_cached() const;
   /// True when some measures are deferred (see fill_cache): then below() and
   /// cached_alpha() may write the cache and must not run concurrently.
