@@ -357,8 +357,13 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
     if (nb < 0) return TopoResult::BoundaryLocked;
     const int32_t o = nb / 4;
     note(reads, o);
-    if (m_.tet_ref[o] != ref || (has_entity && m_.tet_entity[o] != ent)) return TopoResult::RegionMismatch;
-    if (m_.face_mask[cur] & (1u << lo)) return TopoResult::BoundaryLocked;
+    // A face between two regions or entities is constrained (classify), so
+    // the neighbour's ref is read only for a constrained face, to tell the
+    // two refusals apart: a free face needs no read of the neighbour's ref
+    // (a cache miss per shell tet, the largest part of this function's time).
+    if (m_.face_mask[cur] & (1u << lo))
+      return m_.tet_ref[o] != ref || (has_entity && m_.tet_entity[o] != ent) ? TopoResult::RegionMismatch
+                                                                             : TopoResult::BoundaryLocked;
     return TopoResult::Applied;
   };
   while (ring[n] != ring[0]) {
@@ -476,8 +481,9 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
     if (nb < 0) return TopoResult::BoundaryLocked;
     const int32_t o = nb / 4;
     note(reads, o);
-    if (m_.tet_ref[o] != ref || (has_entity && m_.tet_entity[o] != ent)) return TopoResult::RegionMismatch;
-    if (m_.face_mask[packed / 4] & (1u << (packed % 4))) return TopoResult::BoundaryLocked;
+    if (m_.face_mask[packed / 4] & (1u << (packed % 4)))  // as in plan_edge: a free face has one region
+      return m_.tet_ref[o] != ref || (has_entity && m_.tet_entity[o] != ent) ? TopoResult::RegionMismatch
+                                                                             : TopoResult::BoundaryLocked;
     return TopoResult::Applied;
   };
   if (TopoResult r = removable(4 * t + lf); r != TopoResult::Applied) return r;
