@@ -267,18 +267,25 @@ class ParallelRecords {
     const char* p0 = lx.pos();
     const char* e = lx.end();
     const size_t len = static_cast<size_t>(e - p0);
-    const int64_t nc = static_cast<int64_t>((len + chunk - 1) / chunk);
-    if (n <= 0 || nc == 0) return false;
+    const int64_t nc_all = static_cast<int64_t>((len + chunk - 1) / chunk);
+    if (n <= 0 || nc_all == 0) return false;
     auto chunk_begin = [&](int64_t c) { return p0 + std::min(len, static_cast<size_t>(c) * chunk); };
-    std::vector<int64_t> nl(static_cast<size_t>(nc) + 1, 0);
-    detail::parallel_items(nc, threads, [&](int64_t c) {
-      int64_t cnt = 0;
-      for (const char* q = chunk_begin(c); (q = static_cast<const char*>(std::memchr(q, '\n', chunk_begin(c + 1) - q)));
-           ++q)
-        ++cnt;
-      nl[c + 1] = cnt;
-    });
-    for (int64_t c = 0; c < nc; ++c) nl[c + 1] += nl[c];  // nl[c]: newlines in [p0, chunk_begin(c))
+    // Newlines are counted in waves of chunks, each wave twice the last,
+    // until the n-th is passed, so a section is not scanned to the end of the
+    // file (three sections used to scan the rest of the file three times).
+    int64_t wave = std::max<int64_t>(4, 2 * static_cast<int64_t>(detail::resolve_threads(threads)));
+    std::vector<int64_t> nl(1, 0);  // nl[c]: newlines in [p0, chunk_begin(c))
+    int64_t nc = 0;
+    for (; nc < nc_all && nl[static_cast<size_t>(nc)] < n; wave *= 2) {
+      const int64_t c0 = nc, c1 = std::min(nc_all, nc + wave);
+      nl.resize(static_cast<size_t>(c1) + 1, 0);
+      detail::parallel_items(c1 - c0, threads, [&](int64_t j) {
+        const int64_t c = c0 + j;
+        nl[static_cast<size_t>(c) + 1] = std::count(chunk_begin(c), chunk_begin(c + 1), '\n');
+      });
+      for (int64_t c = c0; c < c1; ++c) nl[c + 1] += nl[c];
+      nc = c1;
+    }
     if (nl[nc] < n) return false;  // the last record has no newline (or the count lies): serial
     // The n-th newline ends record n-1.
     int64_t cn = 0;
