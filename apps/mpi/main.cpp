@@ -33,6 +33,7 @@
 
 #include "../cli/hugepages.hpp"
 #include "../cli/improve_args.hpp"
+#include "detail/parallel.hpp"
 #include "distribute.hpp"
 #include "tetopt/improve.hpp"
 #include "tetopt/invariants.hpp"
@@ -327,13 +328,15 @@ int worker(const Args& a, int rank) {
 // ---------------------------------------------------------------- rank 0
 // alpha of every tet into al, and the three numbers the rounds look at (the
 // full statistics are computed once, at the end).
+// The alphas in parallel (rank 0 has every core while the others wait), the
+// sums in tet order: the same numbers for every thread count.
 QualityStats alpha_scan(const TetMesh& g, std::vector<double>& al) {
   QualityStats q;
   al.resize(static_cast<size_t>(g.nt()));
+  tetopt::detail::parallel_for_each(g.nt(), kRank0Threads, [&](int64_t k) { al[k] = tet_alpha(g, static_cast<int32_t>(k)); });
   double sum = 0, worst = std::numeric_limits<double>::infinity();
   for (int32_t k = 0; k < g.nt(); ++k) {
-    const double x = tet_alpha(g, k);
-    al[k] = x;
+    const double x = al[k];
     sum += x;
     worst = std::min(worst, x);
     q.alpha_below_03 += x < 0.3;
