@@ -13,6 +13,7 @@
 #include <unordered_map>
 
 #include "detail/parallel.hpp"
+#include "detail/vec3.hpp"
 
 #include "tetopt/conventions.hpp"
 #include "tetopt/quality.hpp"
@@ -99,19 +100,12 @@ bool dihedral_cosines(const Frame& f, const double d[3], double& cmin, double& c
   if (d[2] == 0) return false;
   const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
   const double* corner[4] = {a, b, c, d};
-  double nrm[4][3];
+  double nrm[4][3], len[4];
+  detail::face_normals(corner, nrm, len);
   for (int k = 0; k < 4; ++k) {
-    const double* q0 = corner[kFaceVertex[k][0]];
-    const double* q1 = corner[kFaceVertex[k][1]];
-    const double* q2 = corner[kFaceVertex[k][2]];
-    const double u[3] = {q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]};
-    const double v[3] = {q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2]};
-    double* n = nrm[k];
-    n[0] = u[1] * v[2] - u[2] * v[1];
-    n[1] = u[2] * v[0] - u[0] * v[2];
-    n[2] = u[0] * v[1] - u[1] * v[0];
-    const double l = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    const double l = len[k];
     if (!(l > 0)) return false;
+    double* n = nrm[k];
     n[0] /= l; n[1] /= l; n[2] /= l;
   }
   cmin = 2;

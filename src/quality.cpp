@@ -195,14 +195,8 @@ void stats_block(const TetMesh& m, int32_t t0, int32_t t1, StatsPart& p) {
     cross(ev, ew, bc);
     const double vol = dot(eu, bc) / 6.0;  // tet_signed_volume
     double n[4][3], nl[4], area = 0;
-    for (int f = 0; f < 4; ++f) {
-      double e1[3], e2[3];
-      sub(pt[kFaceVertex[f][1]], pt[kFaceVertex[f][0]], e1);
-      sub(pt[kFaceVertex[f][2]], pt[kFaceVertex[f][0]], e2);
-      cross(e1, e2, n[f]);
-      nl[f] = norm(n[f]);
-      area += 0.5 * nl[f];
-    }
+    detail::face_normals(pt, n, nl);
+    for (int f = 0; f < 4; ++f) area += 0.5 * nl[f];
     double l2max = 0, l2sum = 0;
     for (int e = 0; e < 6; ++e) {
       double u[3];

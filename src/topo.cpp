@@ -26,6 +26,7 @@
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
 #include "detail/parallel.hpp"
+#include "detail/vec3.hpp"
 
 #ifdef TETOPT_HAVE_TBB
 #include <tbb/enumerable_thread_specific.h>
@@ -243,17 +244,7 @@ void TopoEditor::fill_cache() {
       if (al >= o_.alpha_floor && al > 0) {
         const double* p[4] = {a, b, c, d};
         double n[4][3], nl[4];
-        for (int f = 0; f < 4; ++f) {
-          const double* p0 = p[kFaceVertex[f][0]];
-          const double* p1 = p[kFaceVertex[f][1]];
-          const double* p2 = p[kFaceVertex[f][2]];
-          const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
-          const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
-          n[f][0] = e1[1] * e2[2] - e1[2] * e2[1];
-          n[f][1] = e1[2] * e2[0] - e1[0] * e2[2];
-          n[f][2] = e1[0] * e2[1] - e1[1] * e2[0];
-          nl[f] = std::sqrt(n[f][0] * n[f][0] + n[f][1] * n[f][1] + n[f][2] * n[f][2]);
-        }
+        detail::face_normals(p, n, nl);
         double cmax = -1, cmin = 1;
         for (int k = 0; k < 4; ++k)
           for (int l = k + 1; l < 4; ++l) {
