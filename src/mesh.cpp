@@ -13,6 +13,7 @@
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
 #include "detail/parallel.hpp"
+#include "detail/sum.hpp"
 
 namespace tetopt {
 
@@ -252,8 +253,8 @@ FirstError earlier(const FirstError& a, const FirstError& b) { return b.at < a.a
 // Two tets sharing two faces have the same four vertices: a duplicate.
 Status check_duplicates(const TetMesh& m, int threads);
 // Per face of the tets from first_tet on (4 entries per tet, in order), 1 if
-// it is a listed triangle: each triangle is looked up in the star of its
-// first vertex (stars must be built).  touched (optional, per vertex): skip
+// it is a listed triangle: each triangle is looked up in the smallest star
+// of its three vertices (stars must be built).  touched (optional, per vertex): skip
 // triangles with a vertex outside it.  Empty when the mesh lists none.
 std::vector<uint8_t> listed_faces(const TetMesh& m, int32_t first_tet, const std::vector<uint8_t>* touched,
                                   int threads) {
@@ -520,7 +521,7 @@ void classify(TetMesh& m, int threads) {
   m.vert_constrained.assign(nv, 0);
   m.tet_kind.assign(nt, 0);
   // Listed triangles are constrained faces: mark the face of every tet
-  // holding one, found in the star of its first vertex (a binary search per
+  // holding one, found in the smallest star of its vertices (a binary search per
   // interior face was 60% of this function on flange_large).
   const std::vector<uint8_t> listed = listed_faces(m, 0, nullptr, threads);
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
@@ -708,17 +709,11 @@ double tet_volume(const TetMesh& m, int32_t t) {
 }
 
 std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m, int threads) {
-  using Acc = std::map<int32_t, std::pair<double, double>>;  // Neumaier sum per ref
-  auto add = [](std::pair<double, double>& sc, double x) {
-    auto& [s, c] = sc;
-    const double u = s + x;
-    c += std::fabs(s) >= std::fabs(x) ? (s - u) + x : (x - u) + s;
-    s = u;
-  };
+  using Acc = std::map<int32_t, detail::Sum>;  // per ref
   Acc acc;
   for (const Acc& part : detail::parallel_map_blocks(m.nt(), threads, [&](int64_t b, int64_t e) {
          Acc a;
-         std::pair<double, double>* cur = nullptr;  // tets of one ref come in runs
+         detail::Sum* cur = nullptr;  // tets of one ref come in runs
          int32_t cur_ref = 0;
          for (int64_t t = b; t < e; ++t) {
            const int32_t r = m.tet_ref[t];
@@ -726,16 +721,13 @@ std::vector<std::pair<int32_t, double>> region_volumes(const TetMesh& m, int thr
              cur = &a[r];
              cur_ref = r;
            }
-           add(*cur, tet_volume(m, static_cast<int32_t>(t)));
+           cur->add(tet_volume(m, static_cast<int32_t>(t)));
          }
          return a;
        }))
-    for (const auto& [r, sc] : part) {
-      add(acc[r], sc.first);
-      add(acc[r], sc.second);
-    }
+    for (const auto& [r, sc] : part) acc[r].add(sc);
   std::vector<std::pair<int32_t, double>> out;
-  for (auto& [r, sc] : acc) out.emplace_back(r, sc.first + sc.second);
+  for (auto& [r, sc] : acc) out.emplace_back(r, sc.value());
   return out;
 }
 

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "detail/parallel.hpp"
+#include "detail/sum.hpp"
 #include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/mesh.hpp"
@@ -27,16 +28,7 @@ const std::array<double, 17> kBinCos = [] {
 }();
 const double kCos5 = std::cos(5.0 * M_PI / 180.0), kCos175 = std::cos(175.0 * M_PI / 180.0);
 
-// Neumaier-compensated sum, so means over millions of tets stay exact to ~1e-15.
-struct Sum {
-  double s = 0, c = 0;
-  void add(double x) {
-    const double t = s + x;
-    c += std::fabs(s) >= std::fabs(x) ? (s - t) + x : (x - t) + s;
-    s = t;
-  }
-  double value() const { return s + c; }
-};
+using detail::Sum;
 }  // namespace
 
 double tet_signed_volume(const double* a, const double* b, const double* c, const double* d) {
@@ -149,17 +141,12 @@ struct StatsPart {
   }
 };
 
-void add_sum(Sum& a, const Sum& b) {
-  a.add(b.s);
-  a.add(b.c);
-}
-
 // a then b (b's tets come after a's): "first tet wins" ties stay as serial.
 void merge(StatsPart& a, const StatsPart& b) {
   for (int k = 0; k < 5; ++k) a.s.kind_count[k] += b.s.kind_count[k];
-  add_sum(a.all, b.all);
-  add_sum(a.bnd, b.bnd);
-  add_sum(a.inr, b.inr);
+  a.all.add(b.all);
+  a.bnd.add(b.bnd);
+  a.inr.add(b.inr);
   if (b.s.alpha_worst < a.s.alpha_worst) { a.s.alpha_worst = b.s.alpha_worst; a.s.worst_tet = b.s.worst_tet; }
   a.s.alpha_boundary_worst = std::min(a.s.alpha_boundary_worst, b.s.alpha_boundary_worst);
   a.s.alpha_interior_worst = std::min(a.s.alpha_interior_worst, b.s.alpha_interior_worst);

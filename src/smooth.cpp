@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "detail/parallel.hpp"
+#include "detail/sum.hpp"
 #include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/predicates.hpp"
@@ -125,16 +126,7 @@ inline double local_error(const LocalTet& T, const double* x, double* g) {
   return e;
 }
 
-// Neumaier-compensated sum (deterministic, accurate over millions of tets).
-struct Sum {
-  double s = 0, c = 0;
-  void add(double x) {
-    const double t = s + x;
-    c += std::fabs(s) >= std::fabs(x) ? (s - t) + x : (x - t) + s;
-    s = t;
-  }
-  double value() const { return s + c; }
-};
+using detail::Sum;
 
 inline double clamp_weight(double w) {
   if (!(w >= 0.5)) return 0.5;
@@ -690,8 +682,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
            return p;
          })) {
       if (p.inf) return kInf;
-      total.add(p.s.s);
-      total.add(p.s.c);
+      total.add(p.s);
     }
     return total.value();
   };
