@@ -276,13 +276,30 @@ double to_public(ApexObjective obj, double score) { return obj == ApexObjective:
 
 }  // namespace
 
-double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj) {
+namespace {
+// cheap_apex_value for the three objectives (indexed by ApexObjective),
+// sharing the frame and the normals at each candidate.
+void cheap_apex_values(const double* a, const double* b, const double* c, double out[3]) {
   const Frame f(a, b, c);
-  if (f.degenerate) return degenerate_value(obj);
-  const Objective g{f, obj};
-  double best = -std::numeric_limits<double>::infinity();
-  for (const Vec3& p : candidates(f)) best = std::max(best, g(p));
-  return to_public(obj, best);
+  const ApexObjective objs[3] = {ApexObjective::Alpha, ApexObjective::MinDihedral, ApexObjective::MaxDihedral};
+  if (f.degenerate) {
+    for (int k = 0; k < 3; ++k) out[k] = degenerate_value(objs[k]);
+    return;
+  }
+  for (int k = 0; k < 3; ++k) out[k] = -std::numeric_limits<double>::infinity();
+  for (const Vec3& p : candidates(f)) {
+    double v[3];
+    objectives_at(f, p, v);
+    for (int k = 0; k < 3; ++k) out[k] = std::max(out[k], v[k]);
+  }
+  for (int k = 0; k < 3; ++k) out[k] = to_public(objs[k], out[k]);
+}
+}  // namespace
+
+double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj) {
+  double v[3];
+  cheap_apex_values(a, b, c, v);
+  return v[static_cast<int>(obj)];
 }
 
 namespace {
@@ -414,23 +431,8 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
     face_points(m, faces[i], p);
     double qa, qmin, qmax;
     achieved_on_face(m, faces[i], qa, qmin, qmax);
-    // cheap_apex_value for the three objectives, sharing the frame and the
-    // normals at each candidate.
-    const Frame f(p[0], p[1], p[2]);
     double best[3];
-    if (f.degenerate) {
-      best[0] = degenerate_value(ApexObjective::Alpha);
-      best[1] = degenerate_value(ApexObjective::MinDihedral);
-      best[2] = degenerate_value(ApexObjective::MaxDihedral);
-    } else {
-      best[0] = best[1] = best[2] = -std::numeric_limits<double>::infinity();
-      for (const Vec3& c : candidates(f)) {
-        double v[3];
-        objectives_at(f, c, v);
-        for (int k = 0; k < 3; ++k) best[k] = std::max(best[k], v[k]);
-      }
-      best[2] = to_public(ApexObjective::MaxDihedral, best[2]);
-    }
+    cheap_apex_values(p[0], p[1], p[2], best);
     cheap[0][i] = std::max(qa, best[0]);
     cheap[1][i] = std::max(qmin, best[1]);
     cheap[2][i] = -std::min(qmax, best[2]);
