@@ -48,6 +48,7 @@ const char* kMainHelp =
 
 int main(int argc, char** argv) {
   tetopt_cli::reexec_with_huge_pages(argv);
+  tetopt_cli::keep_freed_memory();
   std::signal(SIGINT, tetopt_cli::on_sigint);
   if (argc < 2) {
     std::fputs(kMainHelp, stderr);

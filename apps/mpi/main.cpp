@@ -687,6 +687,7 @@ int leader(const Args& a, int size) {
 
 int main(int argc, char** argv) {
   tetopt_cli::reexec_with_huge_pages(argv);  // before MPI starts (same process id)
+  tetopt_cli::keep_freed_memory();
   MPI_Init(&argc, &argv);
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
