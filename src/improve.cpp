@@ -172,7 +172,7 @@ class Driver {
     // A globally bad mesh (a quarter of its tets below alpha 0.1, e.g. a lazy
     // random triangulation) first gets a global relaxation: local passes on
     // the worst tets cannot reorganise thousands of vertices (relax.hpp).
-    if (relax_wanted(m_)) {
+    if (relax_wanted(m_, RelaxOptions{}, o_.threads)) {
       const auto t = Clock::now();
       const RelaxStats rs = relax_pass(m_, RelaxOptions{}, sub_log_);
       alpha_.clear();

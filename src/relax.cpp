@@ -22,6 +22,8 @@
 #include "tetopt/quality.hpp"
 #include "tetopt/topo.hpp"
 
+#include "detail/parallel.hpp"
+
 namespace tetopt {
 namespace {
 
@@ -211,14 +213,16 @@ int64_t jacobi_step(TetMesh& m, const std::vector<double>& h, double step, doubl
 
 }  // namespace
 
-double bad_tet_fraction(const TetMesh& m) {
+double bad_tet_fraction(const TetMesh& m, int threads) {
   if (m.nt() == 0) return 0;
-  int64_t bad = 0;
-  for (int32_t t = 0; t < m.nt(); ++t) bad += tet_alpha(m, t) < 0.1;
+  const int64_t bad =
+      detail::parallel_count(m.nt(), threads, [&](int64_t t) { return tet_alpha(m, static_cast<int32_t>(t)) < 0.1; });
   return static_cast<double>(bad) / m.nt();
 }
 
-bool relax_wanted(const TetMesh& m, const RelaxOptions& o) { return bad_tet_fraction(m) >= o.trigger_fraction; }
+bool relax_wanted(const TetMesh& m, const RelaxOptions& o, int threads) {
+  return bad_tet_fraction(m, threads) >= o.trigger_fraction;
+}
 
 std::vector<double> relax_size_field(const TetMesh& m, double gradation) {
   const int32_t nv = m.nv(), nt = m.nt();

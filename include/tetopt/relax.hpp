@@ -78,12 +78,13 @@ struct RelaxStats {
   Status status;                ///< not ok when a flip pass failed to rebuild topology
 };
 
-/// Fraction of tets with alpha < 0.1 (0 for an empty mesh).
-double bad_tet_fraction(const TetMesh& m);
+/// Fraction of tets with alpha < 0.1 (0 for an empty mesh); counted in
+/// blocks on `threads` threads (0 = all cores), the same for every count.
+double bad_tet_fraction(const TetMesh& m, int threads = 1);
 
 /// True when the mesh is globally bad enough for relax_pass
-/// (bad_tet_fraction(m) >= o.trigger_fraction).
-bool relax_wanted(const TetMesh& m, const RelaxOptions& o = {});
+/// (bad_tet_fraction(m, threads) >= o.trigger_fraction).
+bool relax_wanted(const TetMesh& m, const RelaxOptions& o = {}, int threads = 1);
 
 /// Size field of step 1 of the essay (one value per vertex, at least h_min;
 /// unused vertices 0).

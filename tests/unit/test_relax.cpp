@@ -175,6 +175,24 @@ TEST(RelaxTest, TriggerIgnoresGoodMeshes) {
   EXPECT_FALSE(relax_wanted(m));
 }
 
+TEST(RelaxTest, BadFractionIsTheSameForEveryThreadCount) {
+  // Several blocks of 8192 tets, so the threads split the count.
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 17;
+  bo.jitter = 0.45;
+  bo.seed = 3;
+  TetMesh m = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(m).ok());
+  ASSERT_GT(m.nt(), 3 * 8192);
+  int64_t bad = 0;
+  for (int32_t t = 0; t < m.nt(); ++t) bad += alpha(m.point(m.tet(t)[0]), m.point(m.tet(t)[1]), m.point(m.tet(t)[2]),
+                                                    m.point(m.tet(t)[3])) < 0.1;
+  ASSERT_GT(bad, 0);
+  ASSERT_LT(bad, m.nt());
+  const double expect = static_cast<double>(bad) / m.nt();
+  for (int threads : {1, 2, 3, 0}) EXPECT_EQ(bad_tet_fraction(m, threads), expect) << threads << " threads";
+}
+
 TEST(RelaxTest, SizeFieldIsLargeNearBigConstrainedFaces) {
   TetMesh m = lazy_random_cube(300, 5);
   ASSERT_TRUE(build_topology(m).ok());
