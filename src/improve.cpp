@@ -368,7 +368,7 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   j << "  \"options\": {\"mode\": \"" << mode_name(o.mode) << "\", \"optimizer\": \""
     << (o.maxmin_optimizer ? "maxmin" : "paper") << "\", \"weight\": " << num(o.weight)
     << ", \"threshold\": " << num(o.threshold) << ", \"iterations\": " << o.iterations << ", \"seed\": " << o.seed
-    << ", \"threads\": " << o.threads << ", \"allow_insert\": " << (o.allow_insert ? "true" : "false")
+    << ", \"threads\": " << detail::resolve_threads(o.threads) << ", \"allow_insert\": " << (o.allow_insert ? "true" : "false")
     << ", \"allow_remove\": " << (o.allow_remove ? "true" : "false") << "},\n";
   j << "  \"before\": " << stats_to_json(r.before, 4) << ",\n";
   j << "  \"after\": " << stats_to_json(r.after, 4) << ",\n";

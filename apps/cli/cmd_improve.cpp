@@ -42,8 +42,8 @@ static const char* kImproveHelp =
     "  --threshold G        tets with alpha < G are poor (default 0.3)\n"
     "  --iterations N       rounds (default 10)\n"
     "  --seed S             visiting order (default 0); same seed, same output\n"
-    "  --threads K          worker threads (default 1, 0 = all cores); the output is\n"
-    "                       byte-identical for every K\n"
+    "  --threads K          worker threads (default 0 = all cores); the output is\n"
+    "                       byte-identical for every K (--threads 1 on a shared machine)\n"
     "  --report FILE.json   write a machine-readable report: before/after statistics,\n"
     "                       operation counts, time per phase, the invariant check\n"
     "  --field OUT.vtu      write per-tet fields of OUT for ParaView: alpha, alpha_before\n"
@@ -75,6 +75,9 @@ static const char* kImproveHelp =
 
 int cmd_improve(const std::vector<std::string>& args) {
   ImproveArgs a;
+  // All cores unless told otherwise: the output is the same for every count
+  // (tetopt-mpi keeps 1 thread per rank).
+  a.opt.threads = 0;
   std::string field, html;  // options of tetopt improve only
   const std::vector<ExtraOption> extra = {
       {{"--field"}, true, [&](const std::string& v, std::string&) { field = v; return true; }},

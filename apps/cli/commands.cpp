@@ -115,7 +115,7 @@ static const char* kQualityHelp =
     "                    diagnosis with the worst tets)\n"
     "  --threshold G     alpha below which a tet is diagnosed (default 0.3)\n"
     "  --threads K       worker threads for reading, the topology, the statistics and the\n"
-    "                    diagnosis (default 1, 0 = all cores; the same output for any K)\n"
+    "                    diagnosis (default 0 = all cores; the same output for any K)\n"
     "  --no-histogram    omit the histograms\n"
     "  -q                no notes or progress on stderr\n"
     "\n"
@@ -124,7 +124,7 @@ static const char* kQualityHelp =
 int cmd_quality(const std::vector<std::string>& args) {
   std::string in, field, html;
   bool json = false, hist = true, quiet = false;
-  int threads = 1;
+  int threads = 0;  // all cores: the same output for any count
   DiagnoseOptions dopt;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -211,7 +211,7 @@ static const char* kConvertHelp =
     "  --msh-version V   22 or 41 for .msh output (default 41)\n"
     "  --binary          binary .msh / .vtk output\n"
     "  --meshb-version V GMF version of .meshb output: 2, 3 (default) or 4\n"
-    "  --threads K       worker threads for reading and writing (default 1, 0 = all\n"
+    "  --threads K       worker threads for reading and writing (default 0 = all\n"
     "                    cores); the output is byte-identical for every K\n"
     "\n"
     "example:  tetopt convert part.msh part.mesh\n";
@@ -219,6 +219,7 @@ static const char* kConvertHelp =
 int cmd_convert(const std::vector<std::string>& args) {
   std::vector<std::string> pos;
   WriteOptions wo;
+  wo.threads = 0;  // all cores: the same bytes for any count
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     long long v = 0;
