@@ -700,7 +700,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
   std::vector<uint64_t> colour_seen;  // per colour: stamp of the last vertex that saw it
   uint64_t seen_epoch = 0;
   std::vector<int32_t> active, moved, order, class_start, cursor;
-  std::vector<uint8_t> result, reactivate;
+  std::vector<uint8_t> result, reactivate, poor;
   std::mt19937_64 rng(o.seed);
 
   auto is_free = [&](int32_t u) { return !m.vert_constrained[u] && m.star_begin(u) != m.star_end(u); };
@@ -818,6 +818,11 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
         log(LogLevel::Progress, buf);
       }
       if (moved.empty()) break;  // nothing (worth re-visiting) changed
+      // The free vertices of the moved vertices' stars, each once; in phase
+      // 0 only those touching a poor tet.  That test reads a star's cached
+      // alphas per candidate (the larger part of this serial loop at 2
+      // threads on the demo impeller): it runs on the pool, a flag per
+      // candidate.  The list is sorted after, so the order found is moot.
       active.clear();
       ++epoch;
       for (const int32_t v : moved)
@@ -827,9 +832,20 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
             const int32_t u = tv[k];
             if (stamp[u] == epoch) continue;
             stamp[u] = epoch;
-            if (is_free(u) && (phase == 1 || touches_poor(u))) active.push_back(u);
+            if (is_free(u)) active.push_back(u);
           }
         }
+      if (phase == 0) {
+        poor.assign(active.size(), 0);
+        auto test = [&](int64_t i) { poor[i] = touches_poor(active[i]); };
+        const auto na = static_cast<int64_t>(active.size());
+        if (threads > 1 && na >= 512) get_pool().run(na, 64, test);
+        else for (int64_t i = 0; i < na; ++i) test(i);
+        size_t kept = 0;
+        for (size_t i = 0; i < active.size(); ++i)
+          if (poor[i]) active[kept++] = active[i];
+        active.resize(kept);
+      }
       std::sort(active.begin(), active.end());
     }
   }
