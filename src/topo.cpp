@@ -1345,21 +1345,24 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
   };
   int64_t changed = 0;
 #ifdef TETOPT_HAVE_TBB
-  // Windows of W tets.  Planning reads only (a deferred dihedral measure
-  // would write its cache, hence lb_.empty()).  A commit stamps every tet
-  // slot it writes (removed, rewritten, or an outer neighbour whose link it
-  // updates) with an epoch >= s0, and a plan records every tet it read, so a
-  // plan that read a changed tet sees a stamp >= s0 and is redone on the
-  // current mesh.  Otherwise it read exactly what the serial loop would read
-  // at that point (vertices do not move here), and its outcome (applied
-  // option or refusal) is the serial one.  A former check on two vertices of
-  // every tet read also redid plans next to a change: 4,884 replans on the
-  // demo impeller, 90% of them giving the same plan again.
+  // Windows of W tets (fewer at the end).  Planning reads only (a deferred
+  // dihedral measure would write its cache, hence lb_.empty()).  A plan
+  // keeps the stamp taken just before it was made (its epoch) and every tet
+  // it read; a commit stamps every tet slot it writes (removed, rewritten,
+  // or an outer neighbour whose link it updates) with the current stamp, so
+  // a plan that read a tet changed since sees a stamp >= its epoch and is
+  // redone on the current mesh.  Otherwise it read exactly what the serial
+  // loop would read at that point (vertices do not move here), and its
+  // outcome (applied option or refusal) is the serial one.  A former check
+  // on two vertices of every tet read also redid plans next to a change:
+  // 4,884 replans on the demo impeller, 90% of them giving the same plan
+  // again.
   const int threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
   constexpr size_t W = 512;
-  if (threads > 1 && lb_.empty() && work.size() > W) {
+  if (threads > 1 && lb_.empty() && work.size() >= 64) {
     struct Plan {
-      uint8_t state = 0;  // 0 not planned (not eligible at the window's start), 1 refused, 2 applied
+      uint8_t state = 0;  // 0 not planned (not eligible when planned), 1 refused, 2 applied
+      uint32_t epoch = 0;  // the stamp taken just before it was planned
       std::vector<int32_t> reads;
     };
     std::vector<Plan> plan(W);
@@ -1369,39 +1372,67 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
     };
     tbb::enumerable_thread_specific<Scratch> scratch;
     tbb::task_arena arena(threads);
+    size_t w0 = 0;
+    // Plans entry i of the window on the current mesh (read only).
+    auto plan_one = [&](size_t i, uint32_t epoch) {
+      Scratch& sc = scratch.local();
+      const int32_t t = work[w0 + i];
+      Plan& p = plan[i];
+      p.reads.clear();
+      p.epoch = epoch;
+      if (!eligible(t)) {
+        p.state = 0;
+        return;
+      }
+      Candidate* c = &sc.a;
+      Candidate* b = &sc.b;
+      if (plan_best(t, strict, c, b, &p.reads) == TopoResult::Applied) {
+        pack(*b, chosen[i]);
+        p.state = 2;
+      } else {
+        p.state = 1;
+      }
+    };
+    auto valid = [&](size_t i) {
+      const Plan& p = plan[i];
+      if (p.state == 0) return false;
+      for (const int32_t r : p.reads)
+        if (tstamp_[r] >= p.epoch) return false;
+      return true;
+    };
+    // Entries after an invalid one that are replanned with it (see below).
+    constexpr size_t kAhead = 64;
+    std::vector<size_t> redo;
     arena.execute([&] {
-      for (size_t w0 = 0; w0 < work.size(); w0 += W) {
+      for (; w0 < work.size(); w0 += W) {
         const size_t n = std::min(W, work.size() - w0);
         const uint32_t s0 = next_stamp();
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8), [&](const tbb::blocked_range<size_t>& r) {
-          Scratch& sc = scratch.local();
-          for (size_t i = r.begin(); i < r.end(); ++i) {
-            const int32_t t = work[w0 + i];
-            Plan& p = plan[i];
-            p.reads.clear();
-            if (!eligible(t)) {
-              p.state = 0;
-              continue;
-            }
-            Candidate* c = &sc.a;
-            Candidate* b = &sc.b;
-            if (plan_best(t, strict, c, b, &p.reads) == TopoResult::Applied) {
-              pack(*b, chosen[i]);
-              p.state = 2;
-            } else {
-              p.state = 1;
-            }
-          }
+          for (size_t i = r.begin(); i < r.end(); ++i) plan_one(i, s0);
         });
         for (size_t i = 0; i < n; ++i) {
           const int32_t t = work[w0 + i];
           if (!eligible(t)) continue;
-          const Plan& p = plan[i];
-          bool valid = p.state != 0;
-          for (size_t k = 0; valid && k < p.reads.size(); ++k) valid = tstamp_[p.reads[k]] < s0;
-          if (!valid) {
-            changed += improve_tet(t, strict) == TopoResult::Applied;
-          } else if (p.state == 2) {
+          if (!valid(i)) {
+            // A commit of this window changed what the plan read: plan it
+            // again on the current mesh, together with the next entries
+            // whose plans are invalid now too (on the other threads; each
+            // is checked again when its turn comes, against the stamp taken
+            // here).  The serial replans of the former loop were most of
+            // the window path's serial time at 2 threads.
+            redo.assign(1, i);
+            for (size_t k = i + 1; k < std::min(n, i + 1 + kAhead); ++k)
+              if (eligible(work[w0 + k]) && !valid(k)) redo.push_back(k);
+            const uint32_t s1 = next_stamp();
+            if (redo.size() == 1) {
+              plan_one(i, s1);
+            } else {
+              tbb::parallel_for(tbb::blocked_range<size_t>(0, redo.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+                for (size_t j = r.begin(); j < r.end(); ++j) plan_one(redo[j], s1);
+              });
+            }
+          }
+          if (plan[i].state == 2) {
             unpack(chosen[i], *best_);
             commit(*best_);
             ++changed;
