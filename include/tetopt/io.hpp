@@ -18,6 +18,7 @@
 // write_mesh writes to "PATH.tmp-XXXX" and renames at the end, so a failed
 // run never leaves half a file.
 #pragma once
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -57,7 +58,14 @@ Status parse_tetgen(std::string_view node, std::string_view ele, std::string_vie
 
 /// Serialises m in the given format into `out` (bytes).  For TetGen, out is
 /// the .node text and out_ele / out_face receive the other files.
-Status format_medit(const TetMesh& m, std::string& out, int threads = 1);
+///
+/// format_medit with `flush`: whenever `out` holds at least 4 MiB of whole
+/// lines (never at the end), flush(out) is called to take the text; `out` is
+/// cleared after it (the callee may swap in a spare buffer, whose capacity is
+/// then reused).  The caller writes what is left in `out` after the call.  The concatenation of the flushed pieces
+/// and the rest is the text format_medit writes without flush, byte for byte.
+using TextFlush = std::function<void(std::string& out)>;
+Status format_medit(const TetMesh& m, std::string& out, int threads = 1, const TextFlush& flush = {});
 Status format_meditb(const TetMesh& m, std::string& out, int version);
 Status format_gmsh(const TetMesh& m, std::string& out, int version, bool binary);
 Status format_vtk(const TetMesh& m, std::string& out, bool binary);

@@ -1052,11 +1052,19 @@ Status parse_meditb(std::string_view data, const std::string& name, TetMesh& m) 
   });
 }
 
-Status format_medit(const TetMesh& m, std::string& out, int threads) {
+Status format_medit(const TetMesh& m, std::string& out, int threads, const TextFlush& flush) {
   return guarded("Medit writer", [&] {
     if (Status s = check_for_write(m); !s) return s;
     out.clear();
-    out.reserve(static_cast<size_t>(m.nv()) * 64 + m.tets.size() * 10 + m.tris.size() * 10 + 256);
+    constexpr size_t kFlushAt = size_t{4} << 20;
+    const size_t whole = static_cast<size_t>(m.nv()) * 64 + m.tets.size() * 10 + m.tris.size() * 10 + 256;
+    out.reserve(flush ? std::min(whole, 2 * kFlushAt) : whole);
+    auto maybe_flush = [&] {
+      if (flush && out.size() >= kFlushAt) {
+        flush(out);
+        out.clear();
+      }
+    };
     out += "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n";
     put_int(out, m.nv());
     out += '\n';
@@ -1075,7 +1083,10 @@ Status format_medit(const TetMesh& m, std::string& out, int threads) {
           o.clear();
           for (int64_t i = b; i < e; ++i) line(o, b0 + i);
         });
-        for (int64_t k = 0; k < detail::block_count(len); ++k) out += buf[static_cast<size_t>(k)];
+        for (int64_t k = 0; k < detail::block_count(len); ++k) {
+          out += buf[static_cast<size_t>(k)];
+          maybe_flush();
+        }
       }
     };
     blocks(m.nv(), [&](std::string& o, int64_t i) {
@@ -1108,6 +1119,7 @@ Status format_medit(const TetMesh& m, std::string& out, int threads) {
     };
     elements("Edges", m.edges, 2, m.edge_ref);
     elements("Triangles", m.tris, 3, m.tri_ref);
+    maybe_flush();
     out += "Tetrahedra\n";
     put_int(out, m.nt());
     out += '\n';

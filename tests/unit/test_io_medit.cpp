@@ -2,6 +2,8 @@
 // input, real meshes (when /work/shared/meshes exists) and a meshio cross-check.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -9,6 +11,7 @@
 #include <climits>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -774,4 +777,49 @@ TEST(IoMedit, AsciiParallelSectionsEqualSerial) {
   }
   EXPECT_GE(ok, 2);
   EXPECT_LE(ok, static_cast<int>(variants.size()) - 4);
+}
+
+// write_mesh streams .mesh text to its temporary file in pieces of about
+// 4 MiB (on a helper thread with threads > 1): the file holds exactly what
+// format_medit gives, and a write that fails after some pieces (a file size
+// limit, as a full disk would) leaves neither the file nor a temporary.
+TEST(IoMedit, StreamedWriteIsTheFormattedTextAndFailsCleanly) {
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 36;  // 279,936 tets: about 9.7 MB of text, two pieces and a rest
+  bo.jitter = 0.2;
+  bo.regions = 2;
+  const TetMesh m = make_box_mesh(bo);
+  std::string text;
+  ASSERT_TRUE(format_medit(m, text).ok());
+  ASSERT_GT(text.size(), size_t{8} << 20);
+  const fs::path d = temp_dir("stream");
+  for (int threads : {1, 2, 0}) {
+    WriteOptions wo;
+    wo.threads = threads;
+    const std::string tag = std::to_string(threads);
+    const fs::path out = d / (tag + "w.mesh");
+    ASSERT_TRUE(write_mesh(out.string(), m, wo).ok()) << threads;
+    EXPECT_TRUE(slurp(out) == text) << threads << " threads: the file is not format_medit's text";
+    // Limits inside the first piece, inside the second and inside the rest.
+    for (const rlim_t limit : {rlim_t{1} << 20, rlim_t{6} << 20, static_cast<rlim_t>(text.size() - 100)}) {
+      const fs::path bad = d / (tag + "_" + std::to_string(limit) + ".mesh");
+      const pid_t pid = ::fork();
+      ASSERT_GE(pid, 0);
+      if (pid == 0) {
+        std::signal(SIGXFSZ, SIG_IGN);  // write() then fails with EFBIG
+        const rlimit rl{limit, limit};
+        if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(20);
+        const Status s = write_mesh(bad.string(), m, wo);
+        ::_exit(s.ok() ? 0 : s.code == ErrorCode::Io && s.message.find("write failed") != std::string::npos ? 10 : 11);
+      }
+      int status = 0;
+      ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+      ASSERT_TRUE(WIFEXITED(status)) << threads << " threads, limit " << limit;
+      EXPECT_EQ(WEXITSTATUS(status), 10) << threads << " threads, limit " << limit;
+      EXPECT_FALSE(fs::exists(bad)) << bad;
+    }
+  }
+  for (const auto& e : fs::directory_iterator(d))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << "left behind: " << e.path();
+  fs::remove_all(d);
 }
