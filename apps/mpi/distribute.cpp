@@ -418,25 +418,22 @@ Status merge_parts(TetMesh& g, const std::vector<int32_t>& part, const std::vect
   return refresh_topology(g, nkept, threads);
 }
 
-std::vector<uint8_t> dilate(const TetMesh& g, std::vector<uint8_t> seed) {
+std::vector<uint8_t> dilate(const TetMesh& g, std::vector<uint8_t> seed, int threads) {
   seed.resize(static_cast<size_t>(g.nv()), 0);
   std::vector<uint8_t> out = seed;
-  for (int32_t t = 0; t < g.nt(); ++t) {
+  mark_tet_vertices(g, out, threads, [&](int32_t t) {
     const int32_t* v = g.tet(t);
-    if (seed[v[0]] || seed[v[1]] || seed[v[2]] || seed[v[3]])
-      for (int k = 0; k < 4; ++k) out[v[k]] = 1;
-  }
+    return seed[v[0]] || seed[v[1]] || seed[v[2]] || seed[v[3]];
+  });
   return out;
 }
 
-int64_t count_touching(const TetMesh& g, std::vector<uint8_t> flags) {
+int64_t count_touching(const TetMesh& g, std::vector<uint8_t> flags, int threads) {
   flags.resize(static_cast<size_t>(g.nv()), 0);
-  int64_t n = 0;
-  for (int32_t t = 0; t < g.nt(); ++t) {
-    const int32_t* v = g.tet(t);
-    if (flags[v[0]] || flags[v[1]] || flags[v[2]] || flags[v[3]]) ++n;
-  }
-  return n;
+  return detail::parallel_count(g.nt(), threads, [&](int64_t t) {
+    const int32_t* v = g.tet(static_cast<int32_t>(t));
+    return flags[v[0]] || flags[v[1]] || flags[v[2]] || flags[v[3]];
+  });
 }
 
 }  // namespace tetopt_mpi

@@ -15,6 +15,7 @@
 // the input, bit for bit.  main.cpp proves it at the end with
 // check_invariants against the snapshot of the input.
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -22,6 +23,8 @@
 
 #include "tetopt/improve.hpp"
 #include "tetopt/mesh.hpp"
+
+#include "detail/parallel.hpp"
 
 namespace tetopt_mpi {
 
@@ -138,11 +141,29 @@ bool decode_result(const std::string& msg, PartResult& r);
 tetopt::Status merge_parts(tetopt::TetMesh& g, const std::vector<int32_t>& part, const std::vector<PartPlan>& plans,
                            std::vector<PartResult>& results, int threads = 1);
 
-/// Marks, in a vector of g.nv() flags (seed is padded with zeros to g.nv()), the vertices of every tet that has a
-/// vertex flagged in `seed` (one layer of tets around it).
-std::vector<uint8_t> dilate(const tetopt::TetMesh& g, std::vector<uint8_t> seed);
+/// Sets flags[v] = 1 (flags has g.nv() entries) for the four vertices of
+/// every tet t of g with pred(t), over fixed blocks of tets on `threads`
+/// threads (0 = all cores).  Several threads may store the same 1 into one
+/// flag (std::atomic_ref, relaxed), so the flags are the serial ones for
+/// every count.
+template <class Pred>
+void mark_tet_vertices(const tetopt::TetMesh& g, std::vector<uint8_t>& flags, int threads, const Pred& pred);
 
-/// Tets of g with a vertex flagged in `flags`.
-int64_t count_touching(const tetopt::TetMesh& g, std::vector<uint8_t> flags);
+/// Marks, in a vector of g.nv() flags (seed is padded with zeros to g.nv()), the vertices of every tet that has a
+/// vertex flagged in `seed` (one layer of tets around it); in parallel, the same flags for every thread count.
+std::vector<uint8_t> dilate(const tetopt::TetMesh& g, std::vector<uint8_t> seed, int threads = 1);
+
+/// Tets of g with a vertex flagged in `flags` (counted in parallel blocks).
+int64_t count_touching(const tetopt::TetMesh& g, std::vector<uint8_t> flags, int threads = 1);
+
+template <class Pred>
+void mark_tet_vertices(const tetopt::TetMesh& g, std::vector<uint8_t>& flags, int threads, const Pred& pred) {
+  tetopt::detail::parallel_for_each(g.nt(), threads, [&](int64_t ti) {
+    const auto t = static_cast<int32_t>(ti);
+    if (!pred(t)) return;
+    const int32_t* v = g.tet(t);
+    for (int k = 0; k < 4; ++k) std::atomic_ref<uint8_t>(flags[v[k]]).store(1, std::memory_order_relaxed);
+  });
+}
 
 }  // namespace tetopt_mpi

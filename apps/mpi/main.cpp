@@ -356,16 +356,14 @@ QualityStats alpha_scan(const TetMesh& g, std::vector<double>& al) {
 std::vector<uint8_t> avoid_flags(const TetMesh& g, const std::vector<double>& al, const std::vector<uint8_t>& prev_shared,
                                  double threshold, double worst) {
   std::vector<uint8_t> avoid =
-      prev_shared.empty() ? std::vector<uint8_t>(static_cast<size_t>(g.nv()), 0) : dilate(g, prev_shared);
+      prev_shared.empty() ? std::vector<uint8_t>(static_cast<size_t>(g.nv()), 0) : dilate(g, prev_shared, kRank0Threads);
   std::vector<double> sorted = al;
   const size_t q = sorted.size() / 100;
   std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
   const double poor = std::max(worst, std::min(threshold, sorted[q]));
   std::vector<uint8_t> bad(static_cast<size_t>(g.nv()), 0);
-  for (int32_t k = 0; k < g.nt(); ++k)
-    if (al[k] < poor)
-      for (int j = 0; j < 4; ++j) bad[g.tet(k)[j]] = 1;
-  bad = dilate(g, dilate(g, std::move(bad)));
+  mark_tet_vertices(g, bad, kRank0Threads, [&](int32_t k) { return al[k] < poor; });
+  bad = dilate(g, dilate(g, std::move(bad), kRank0Threads), kRank0Threads);
   for (size_t v = 0; v < bad.size(); ++v)
     if (bad[v]) avoid[v] = 2;
   return avoid;
@@ -425,18 +423,17 @@ int leader(const Args& a, int size) {
     if (round > 1) {
       std::vector<uint8_t> near = prev_shared;
       near.resize(static_cast<size_t>(g.nv()), 0);
-      near = dilate(g, dilate(g, dilate(g, std::move(near))));
+      near = dilate(g, dilate(g, dilate(g, std::move(near), kRank0Threads), kRank0Threads), kRank0Threads);
       std::vector<uint8_t> poor(static_cast<size_t>(g.nv()), 0);
-      for (int32_t k = 0; k < g.nt(); ++k)
-        if (al[k] < gamma)
-          for (int j = 0; j < 4; ++j) poor[g.tet(k)[j]] = 1;
-      poor = dilate(g, std::move(poor));
+      mark_tet_vertices(g, poor, kRank0Threads, [&](int32_t k) { return al[k] < gamma; });
+      poor = dilate(g, std::move(poor), kRank0Threads);
       active.assign(static_cast<size_t>(g.nt()), 0);
-      for (int32_t k = 0; k < g.nt(); ++k) {
-        const int32_t* v = g.tet(k);
-        for (int j = 0; j < 4; ++j)
-          if (near[v[j]] || poor[v[j]]) { active[k] = 1; ++L.active_tets; break; }
-      }
+      tetopt::detail::parallel_for_each(g.nt(), kRank0Threads, [&](int64_t k) {
+        const int32_t* v = g.tet(static_cast<int32_t>(k));
+        active[k] = near[v[0]] || poor[v[0]] || near[v[1]] || poor[v[1]] || near[v[2]] || poor[v[2]] ||
+                    near[v[3]] || poor[v[3]];
+      });
+      L.active_tets = tetopt::detail::parallel_count(g.nt(), kRank0Threads, [&](int64_t k) { return active[k] != 0; });
       if (L.active_tets < size) {
         say("round %d: nothing left to improve\n", round);
         break;
@@ -479,19 +476,19 @@ int leader(const Args& a, int size) {
     std::vector<uint8_t> shared;
     build_parts(g, part, size, plans, msgs, shared);
     L.t_extract = now() - t;
-    L.frozen_tets = count_touching(g, shared);
+    L.frozen_tets = count_touching(g, shared, kRank0Threads);
     {  // is the worst tet touching this round's interface?
       const int32_t w = static_cast<int32_t>(std::min_element(al.begin(), al.end()) - al.begin());
       for (int j = 0; j < 4; ++j) L.worst_frozen |= shared[g.tet(w)[j]] != 0;
     }
     if (!prev_shared.empty()) {
       prev_shared.resize(static_cast<size_t>(g.nv()), 0);
-      for (int32_t k = 0; k < g.nt(); ++k) {
-        const int32_t* v = g.tet(k);
+      L.refrozen_tets = tetopt::detail::parallel_count(g.nt(), kRank0Threads, [&](int64_t k) {
+        const int32_t* v = g.tet(static_cast<int32_t>(k));
         bool now_f = false, before_f = false;
         for (int j = 0; j < 4; ++j) { now_f |= shared[v[j]] != 0; before_f |= prev_shared[v[j]] != 0; }
-        L.refrozen_tets += now_f && before_f;
-      }
+        return now_f && before_f;
+      });
     }
     for (int p = 0; p < size; ++p) {
       L.tets_per_rank.push_back(plans[p].tets);
