@@ -47,7 +47,7 @@ class Ctx:
     def improve(self, src, tag, *opts):
         out = os.path.join(self.out, tag + ".mesh")
         rep = os.path.join(self.out, tag + ".json")
-        p, secs = run([self.tetopt, "improve", src, "-o", out, "--report", rep, "-q", *opts])
+        p, secs = run([self.tetopt, "improve", src, "-o", out, "--report", rep, "-q", "--threads", "1", *opts])
         if p.returncode != 0:
             return {"error": (p.stderr or p.stdout).strip()[:200]}
         r = json.load(open(rep))
@@ -66,7 +66,7 @@ def f4(x):
 
 def section_c(ctx, meshes):
     print("## The weight C (paper §5, Fig. 6)\n")
-    print("Command per cell: `tetopt improve IN -o OUT --mode smooth --weight C --report R.json`\n")
+    print("Command per cell: `tetopt improve IN -o OUT --mode smooth --weight C --threads 1 --report R.json`\n")
     print("| mesh | C | worst α | mean α | boundary worst α | boundary mean α | time (s) | referee |")
     print("|---|---|---|---|---|---|---|---|")
     for name, path in meshes:
@@ -84,7 +84,7 @@ def section_c(ctx, meshes):
 
 def section_table2(ctx, impeller):
     print("## Table 2 on the demo impeller\n")
-    print("Commands: `tetopt improve impeller.mesh -o OUT --mode smooth|combined|best --report R.json`\n")
+    print("Commands: `tetopt improve impeller.mesh -o OUT --mode smooth|combined|best --threads 1 --report R.json`\n")
     print("| method | tets | worst α | mean α | boundary worst α | boundary mean α | time (s) | referee |")
     print("|---|---|---|---|---|---|---|---|")
     first = True
@@ -108,7 +108,7 @@ def section_table2(ctx, impeller):
 def section_table3(ctx, tire, seeds):
     print("## Table 3: dihedral angles on TIRE and RAND-like meshes\n")
     print("RAND-like meshes: `/usr/bin/python3 ../shared/tools/randmesh.py rand_S.mesh 5086 S 0`; "
-          "commands: `tetopt improve IN -o OUT --mode M --report R.json`\n")
+          "commands: `tetopt improve IN -o OUT --mode M --threads 1 --report R.json`\n")
     print("| mesh | method | min dihedral | max dihedral | worst α | tets | time (s) | referee |")
     print("|---|---|---|---|---|---|---|---|")
     inputs = []

@@ -38,7 +38,7 @@ echo "mesh $IN; $(nproc) cores; results in $OUT"
 # distributed run with the shared-memory one at equal core count).
 NC=$(nproc)
 /usr/bin/time -f "%e s wall, %M KB max RSS" -o "$OUT/single.time" \
-  "$T" improve "$IN" -o "$OUT/single.$ext" --report "$OUT/single.json" -q || { echo "single run failed"; exit 1; }
+  "$T" improve "$IN" -o "$OUT/single.$ext" --threads 1 --report "$OUT/single.json" -q || { echo "single run failed"; exit 1; }
 /usr/bin/time -f "%e s wall, %M KB max RSS" -o "$OUT/singlet.time" \
   "$T" improve "$IN" -o "$OUT/singlet.$ext" --threads "$NC" --report "$OUT/singlet.json" -q || { echo "single run failed"; exit 1; }
 for k in $RANKS; do

@@ -53,12 +53,12 @@ tets_of() { echo $(( 6 * $1 * $1 * $1 )); }
 
 echo "== foundation: load + classify + measure"
 for n in $sizes; do
-  timed "quality_box$n" "$(tets_of $n)" "$TETOPT" quality "$OUT/box$n.meshb" --json --no-histogram
+  timed "quality_box$n" "$(tets_of $n)" "$TETOPT" quality "$OUT/box$n.meshb" --json --no-histogram --threads 1
 done
 
 echo "== growth: smoothing"
 for n in $sizes; do
-  timed "smooth_box$n" "$(tets_of $n)" "$TETOPT" improve "$OUT/box$n.meshb" -o "$OUT/runs/box${n}_smooth.meshb" --mode smooth -q
+  timed "smooth_box$n" "$(tets_of $n)" "$TETOPT" improve "$OUT/box$n.meshb" -o "$OUT/runs/box${n}_smooth.meshb" --mode smooth --threads 1 -q
 done
 
 IMP=out/demo/impeller.mesh

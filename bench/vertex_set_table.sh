@@ -15,7 +15,7 @@ for f in out/demo/impeller.mesh $S/tire/tire.vtk $S/cube-clip-5/cube-clip-5.vtk 
   n=$(basename "$f"); ext=${n##*.}
   for o in "--allow-insert" "--allow-insert --allow-remove" "--allow-remove"; do
     out="$W/out.$ext"
-    "$T" improve "$f" -o "$out" $o --report "$W/r.json" -q || { echo "| $n | $o | failed (exit $?) |"; continue; }
+    "$T" improve "$f" -o "$out" $o --threads 1 --report "$W/r.json" -q || { echo "| $n | $o | failed (exit $?) |"; continue; }
     v=$(/usr/bin/python3 "$MC" compare "$f" "$out" 2>&1 | tail -1)
     /usr/bin/python3 - "$W/r.json" "$n" "$o" "$v" <<'PY'
 import json, sys
