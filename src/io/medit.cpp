@@ -1058,7 +1058,8 @@ Status format_medit(const TetMesh& m, std::string& out, int threads, const TextF
     out.clear();
     constexpr size_t kFlushAt = size_t{4} << 20;
     const size_t whole = static_cast<size_t>(m.nv()) * 64 + m.tets.size() * 10 + m.tris.size() * 10 + 256;
-    out.reserve(flush ? std::min(whole, 2 * kFlushAt) : whole);
+    // Streamed, `out` holds at most kFlushAt plus one block of lines.
+    out.reserve(flush ? std::min(whole, kFlushAt + (size_t{1} << 20)) : whole);
     auto maybe_flush = [&] {
       if (flush && out.size() >= kFlushAt) {
         flush(out);
@@ -1073,8 +1074,11 @@ Status format_medit(const TetMesh& m, std::string& out, int threads, const TextF
     // blocks go in batches through buffers kept from batch to batch: a fresh
     // buffer per block was a fresh mapping of zeroed pages per block, the
     // largest part of the writer's time.
-    constexpr int64_t kBatch = 16;  // blocks per batch
-    std::vector<std::string> buf(kBatch);
+    // Blocks per batch: 16, or when streamed 2 per thread (at least 4), so
+    // that the batch's buffers (about 0.5 MB a block) stay small beside the
+    // pieces; the bytes do not depend on it.
+    const int64_t kBatch = flush ? std::clamp<int64_t>(2 * detail::resolve_threads(threads), 4, 16) : 16;
+    std::vector<std::string> buf(static_cast<size_t>(kBatch));
     auto blocks = [&](int64_t n, auto&& line) {
       for (int64_t b0 = 0; b0 < n; b0 += kBatch * detail::kBlock) {
         const int64_t len = std::min(n - b0, kBatch * detail::kBlock);
