@@ -80,12 +80,16 @@ def main():
     if imp:
         t1 = imp.get("impeller_best_t1")
         if t1:
-            md += ["", f"Impeller, default mode, 1 thread: {t1['wall_s']:.2f} s wall "
+            of = f", the median of {t1['median_of']} alternated runs" if t1.get("median_of") else ""
+            md += ["", f"Impeller, default mode, 1 thread: {t1['wall_s']:.2f} s wall{of} "
                    f"({PAPER_IMPELLER_S / t1['wall_s']:.0f}x the paper's {PAPER_IMPELLER_S} s), "
                    f"{t1['user_s'] + t1['sys_s']:.2f} s CPU."]
         t2 = imp.get("impeller_best_t2")
         if t1 and t2 and t2["wall_s"]:
-            md += [f"Threads 1 -> 2: {t1['wall_s'] / t2['wall_s']:.2f}x wall."]
+            md += [f"Threads 1 -> 2: {t1['wall_s'] / t2['wall_s']:.2f}x wall (medians)."]
+            if t1.get("walls_s") and t2.get("walls_s"):
+                md += [f"Wall times, sorted: 1 thread {', '.join(f'{w:.2f}' for w in t1['walls_s'])} s; "
+                       f"2 threads {', '.join(f'{w:.2f}' for w in t2['walls_s'])} s."]
     if peers:
         md += ["", "Peers (bench/peers.py, judged by meshcheck; seconds as peers.py measures them), "
                "ratio = peer seconds / tetopt seconds:", "",
