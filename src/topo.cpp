@@ -1424,13 +1424,9 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
             for (size_t k = i + 1; k < std::min(n, i + 1 + kAhead); ++k)
               if (eligible(work[w0 + k]) && !valid(k)) redo.push_back(k);
             const uint32_t s1 = next_stamp();
-            if (redo.size() == 1) {
-              plan_one(i, s1);
-            } else {
-              tbb::parallel_for(tbb::blocked_range<size_t>(0, redo.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-                for (size_t j = r.begin(); j < r.end(); ++j) plan_one(redo[j], s1);
-              });
-            }
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, redo.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+              for (size_t j = r.begin(); j < r.end(); ++j) plan_one(redo[j], s1);
+            });
           }
           if (plan[i].state == 2) {
             unpack(chosen[i], *best_);

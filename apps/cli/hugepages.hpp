@@ -1,7 +1,8 @@
 // Memory set-up of the programs, done before anything else runs.
 //
-// Large pages for the heap (reexec_with_huge_pages): tetopt's arrays are large and filled once, so a run spends much of its
-// kernel time on first-touch page faults: on this project's 2-core VM,
+// Large pages for the heap (reexec_with_huge_pages): tetopt's arrays are
+// large and filled once, so a run spends much of its kernel time on
+// first-touch page faults: on this project's 2-core VM,
 // `tetopt improve` on the 2.0M-tet flange_large took 113k minor faults and
 // 9.0 s; with glibc's malloc asking for transparent huge pages, 7.5k faults
 // and 7.6 s (impeller: 1.85 -> 1.63 s at 1 thread; docs/benchmarks.md).

@@ -62,8 +62,9 @@ Status parse_tetgen(std::string_view node, std::string_view ele, std::string_vie
 /// format_medit with `flush`: whenever `out` holds at least 4 MiB of whole
 /// lines (never at the end), flush(out) is called to take the text; `out` is
 /// cleared after it (the callee may swap in a spare buffer, whose capacity is
-/// then reused).  The caller writes what is left in `out` after the call.  The concatenation of the flushed pieces
-/// and the rest is the text format_medit writes without flush, byte for byte.
+/// then reused).  The caller writes what is left in `out` after the call.
+/// The flushed pieces and the rest, joined, are the text format_medit writes
+/// without flush, byte for byte.
 using TextFlush = std::function<void(std::string& out)>;
 Status format_medit(const TetMesh& m, std::string& out, int threads = 1, const TextFlush& flush = {});
 Status format_meditb(const TetMesh& m, std::string& out, int version);

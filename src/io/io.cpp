@@ -9,10 +9,11 @@
 #include <future>
 #include <random>
 #include <sstream>
-#include <thread>
 #include <unistd.h>
 
 #include "tetopt/io.hpp"
+
+#include "detail/parallel.hpp"
 
 namespace tetopt {
 
@@ -101,6 +102,30 @@ bool write_all(int fd, std::string_view bytes) {
   return true;
 }
 
+Status write_failed() { return Status::error(ErrorCode::Io, "write failed (disk full?)"); }
+
+// Writes `path` through a temporary file in the same folder, renamed into
+// place at the end: body(fd) writes the bytes and returns write_failed() or
+// a format error, and on any failure the temporary is removed, so a failed
+// run never leaves a file, whole or half.
+template <class Body>
+Status write_through_temp(const std::string& path, const Body& body) {
+  const std::string tmp = temp_name(path);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
+  Status s = body(fd);
+  if (::close(fd) != 0 && s) s = write_failed();
+  if (!s) {
+    std::remove(tmp.c_str());
+    return Status::error(s.code, path + ": " + s.message);
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
+  }
+  return Status::success();
+}
+
 // The Medit text goes to the temporary file in pieces of about 4 MiB while
 // the rest is formatted, instead of as one string of the whole file (the
 // demo impeller's is 16 MB: a third of the process's peak memory, and its
@@ -109,59 +134,32 @@ bool write_all(int fd, std::string_view bytes) {
 // cache (0.08 s for the impeller on this project's VM) then overlaps the
 // formatting.  Same bytes as format_medit into one string.
 Status write_medit_streamed(const std::string& path, const TetMesh& m, int threads) {
-  const std::string tmp = temp_name(path);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-  if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
-  const bool helper = threads != 1 && std::thread::hardware_concurrency() != 1;
-  bool ok = true;
-  std::string piece;  // the piece being written; its buffer goes back to the formatter
-  std::future<bool> pending;
-  auto wait = [&] {
-    if (pending.valid()) ok = pending.get() && ok;
-  };
-  const TextFlush flush = [&](std::string& out) {
+  return write_through_temp(path, [&](int fd) {
+    const bool helper = detail::resolve_threads(threads) > 1;
+    bool ok = true;
+    std::string piece;  // the piece being written; its buffer goes back to the formatter
+    std::future<bool> pending;
+    auto wait = [&] {
+      if (pending.valid()) ok = pending.get() && ok;
+    };
+    const TextFlush flush = [&](std::string& out) {
+      wait();
+      std::swap(out, piece);
+      if (!ok) return;
+      if (helper) pending = std::async(std::launch::async, [fd, &piece] { return write_all(fd, piece); });
+      else ok = write_all(fd, piece);
+    };
+    std::string out;
+    const Status s = format_medit(m, out, threads, flush);
     wait();
-    std::swap(out, piece);
-    if (!ok) return;
-    if (helper) pending = std::async(std::launch::async, [fd, &piece] { return write_all(fd, piece); });
-    else ok = write_all(fd, piece);
-  };
-  std::string out;
-  const Status s = format_medit(m, out, threads, flush);
-  wait();
-  if (s && ok) ok = write_all(fd, out);
-  if (::close(fd) != 0) ok = false;
-  if (!s || !ok) {
-    std::remove(tmp.c_str());
-    if (!s) return Status::error(s.code, path + ": " + s.message);
-    return Status::error(ErrorCode::Io, path + ": write failed (disk full?)");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
-  }
-  return Status::success();
+    if (!s) return s;
+    return ok && write_all(fd, out) ? Status::success() : write_failed();
+  });
 }
 }  // namespace
 
 Status write_file_atomic(const std::string& path, std::string_view bytes) {
-  const std::string tmp = temp_name(path);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.flush();
-    if (!out) {
-      out.close();
-      std::remove(tmp.c_str());
-      return Status::error(ErrorCode::Io, path + ": write failed (disk full?)");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
-  }
-  return Status::success();
+  return write_through_temp(path, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); });
 }
 
 Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
