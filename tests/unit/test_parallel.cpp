@@ -55,6 +55,15 @@ TEST(Parallel, BlocksCoverTheRangeOnce) {
         },
         [](int64_t x, int64_t y) { return x + y; });
     EXPECT_EQ(sum, n * (n - 1) / 2);
+    // Ranges of any length (parallel_ranges, for maps over few heavy items).
+    for (int64_t block : {int64_t{1}, int64_t{7}, int64_t{512}}) {
+      std::vector<int> seen(static_cast<size_t>(n), 0);
+      detail::parallel_ranges(n, block, 3, [&](int64_t b, int64_t e) {
+        EXPECT_TRUE(b < e && e - b <= block && (b % block) == 0);
+        for (int64_t i = b; i < e; ++i) seen[static_cast<size_t>(i)]++;
+      });
+      for (int h : seen) ASSERT_EQ(h, 1) << "block " << block;
+    }
   }
 }
 
@@ -77,8 +86,9 @@ TEST(Parallel, TopologyIsTheSameForEveryThreadCount) {
 
 // The vertex->tet CSR is built from per-part counts when threads > 1
 // (mesh.cpp, star_csr): every star must still list exactly the tets holding
-// the vertex, in ascending order, for every thread count (parts of 2, 3, 4
-// tet ranges; 3 cuts the tets unevenly).
+// the vertex, in ascending order, for every thread count (four parts per
+// thread, at most as many as tets per vertex: about 5 parts of uneven tet ranges
+// here).
 TEST(Parallel, VertexStarsAreTheSerialOnesForEveryThreadCount) {
   TetMesh ref = jittered_box();
   ASSERT_GE(ref.tets.size(), size_t{1} << 16);  // large enough for the parallel path
@@ -142,6 +152,25 @@ TEST(Parallel, InvariantProofIsTheSameForEveryThreadCount) {
   const InvariantSnapshot ref = capture_invariants(m, 1);
   ASSERT_EQ(ref.nonpositive, 2);
   ASSERT_EQ(ref.region_volume.size(), 2u);
+  // The constrained faces, found here by a plain scan: every face of the
+  // outer boundary and of the region interface, once, sorted.
+  {
+    std::set<std::array<int32_t, 5>> plain;
+    for (int32_t t = 0; t < m.nt(); ++t)
+      for (int f = 0; f < 4; ++f) {
+        const int32_t n = m.adj[4 * static_cast<size_t>(t) + f];
+        if (n >= 0 && m.tet_ref[n / 4] == m.tet_ref[t]) continue;
+        std::array<int32_t, 3> v{};
+        for (int k = 0; k < 3; ++k) v[k] = m.tets[4 * static_cast<size_t>(t) + kFaceVertex[f][k]];
+        std::sort(v.begin(), v.end());
+        const int32_t r0 = m.tet_ref[t], r1 = n >= 0 ? m.tet_ref[n / 4] : -1;
+        if (n >= 0 && r0 > r1) continue;  // kept from the side with the smaller ref
+        plain.insert({v[0], v[1], v[2], r0, r1});
+      }
+    ASSERT_GT(plain.size(), 1000u);
+    const std::vector<std::array<int32_t, 5>> want(plain.begin(), plain.end());
+    EXPECT_EQ(ref.faces, want);
+  }
   for (int threads : {2, 3, 0}) {
     const InvariantSnapshot s = capture_invariants(m, threads);
     EXPECT_EQ(s.faces, ref.faces) << threads;
