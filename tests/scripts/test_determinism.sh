@@ -50,6 +50,11 @@ TETOPT_NO_HUGEPAGES=1 "$T" improve "$W/big.meshb" -o "$W/h0.mesh" -q
 "$T" improve "$W/big.meshb" -o "$W/h1.mesh" -q
 GLIBC_TUNABLES=glibc.malloc.hugetlb=1 "$T" improve "$W/big.meshb" -o "$W/h2.mesh" -q
 check "huge pages on, off or set by the caller: identical output" 'cmp -s "$W/h0.mesh" "$W/h1.mesh" && cmp -s "$W/h0.mesh" "$W/h2.mesh"'
+# The parallel first touch of the heap (prefault_heap, same file) changes
+# speed only: the same bytes with it off, at 2 threads where it runs.
+TETOPT_NO_PREFAULT=1 "$T" improve "$W/big.meshb" -o "$W/p0.mesh" -q --threads 2
+"$T" improve "$W/big.meshb" -o "$W/p1.mesh" -q --threads 2
+check "heap prefault on or off: identical output" '[ -s "$W/p0.mesh" ] && cmp -s "$W/p0.mesh" "$W/p1.mesh"'
 # The re-executed process sees the tunable (where THP is in madvise mode),
 # and arguments survive the re-execution (a bad option is still reported).
 "$T" improve "$W/big.meshb" -o "$W/h3.mesh" --threshold 7 2> "$W/h3.err"; rc=$?
