@@ -395,6 +395,7 @@ tetopt::OrientationReport prepare(TetMesh& m) {
   {
     py::gil_scoped_release nogil;
     s = tetopt::build_topology(m);
+    if (s) s = tetopt::orient_consistently(m, false, &orient);
   }
   if (!s) throw py::value_error(s.message);
   return orient;

@@ -80,6 +80,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
   }
   if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
   s = build_topology(m, threads);
+  if (s) s = orient_consistently(m, false, &orient, threads);
   if (progress) std::fputs("\033[K", stderr);
   if (!s) {
     std::fprintf(stderr, "tetopt: %s: %s\n", path.c_str(), s.message.c_str());

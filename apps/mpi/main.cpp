@@ -378,6 +378,7 @@ int leader(const Args& a, int size) {
   OrientationReport orient;
   Status s = read_mesh(a.in, g, &orient, kRank0Threads);
   if (s) s = build_topology(g, kRank0Threads);
+  if (s) s = orient_consistently(g, false, &orient, kRank0Threads);
   if (!s) {
     std::fprintf(stderr, "tetopt-mpi: %s: %s\n", a.in.c_str(), s.message.c_str());
     stop_workers(size);

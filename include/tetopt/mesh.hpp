@@ -119,12 +119,30 @@ struct OrientationReport {
   bool flipped = false;                ///< the whole mesh was flipped to positive
   std::vector<int32_t> inverted;       ///< tets still negative after normalising (ids)
   std::vector<int32_t> flat_tets;      ///< tets with zero exact volume (ids)
+  std::vector<int32_t> reoriented;     ///< tets whose vertex order disagreed with their neighbours' (ids; see orient_consistently)
 };
 
 /// Makes tets positive: if most are negative the file used the opposite
 /// convention, so every tet is flipped and m.flipped_on_read toggles.  Tets
 /// that disagree with the majority or are flat are listed, not changed.
 OrientationReport normalize_orientation(TetMesh& m, int threads = 1);
+
+/// After build_topology: checks that the tets' vertex orders agree across
+/// every shared face (two tets sharing a face must induce opposite
+/// orientations on it).  A tet listed with two vertices exchanged disagrees
+/// with all its neighbours; left so, its region's signed volume is not the
+/// region's volume and the boundary is not consistently oriented, so no
+/// operation could keep both.  In every connected set of tets with a
+/// disagreement, the orientation that gives the most tets a positive exact
+/// volume wins, and the tets that differ from it are the disagreeing ones.
+/// repair = false: fails (InvalidMesh, naming them, 1-based) when there are
+/// any.  repair = true: reorients them (two vertices exchanged, like the
+/// whole-mesh flip of normalize_orientation), rebuilds the topology and, when
+/// `r` is given, lists them in r->reoriented and brings its counts and
+/// inverted / flat lists up to date.  Fails (InvalidMesh, naming two tets)
+/// when no consistent orientation exists.  Nothing changes and the cost is
+/// one parallel scan of the faces when all agree.
+Status orient_consistently(TetMesh& m, bool repair, OrientationReport* r = nullptr, int threads = 1);
 
 /// Builds vertex->tet CSR, face adjacency and the constrained classification.
 /// Fails (InvalidMesh, naming tet ids) when a face is shared by three or more

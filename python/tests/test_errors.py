@@ -62,14 +62,20 @@ def test_bad_refs_and_faces():
 
 def test_inverted_and_flat_tets_are_untangled_or_reported():
     # As `tetopt improve`: improve() untangles what it can and says so.
+    # Tet 2 (below the face 0 1 2) listed the wrong way round, i.e. in the
+    # same order as tet 0 on their shared face: the orientation is not
+    # consistent, the region's volume is not defined, and the mesh is refused.
     pts = np.vstack([P, [[0, 0, -1]]])
-    tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4], [0, 1, 2, 5]])
-    # tets 0 and 1 positive; tet 2 (below the face 0 1 2) listed the wrong way
-    # round.  All its vertices are on the boundary: it cannot be untangled.
+    with pytest.raises(ValueError, match=r"1 tet is listed with vertices in the opposite order to its neighbours' \(tet 3,"):
+        tetopt.improve(pts, np.array([[0, 1, 2, 3], [1, 2, 3, 4], [0, 1, 2, 5]]))
+    # Listed consistently (0 2 1 5) but folded: its apex is above the face,
+    # inside tet 0.  All its vertices are on the boundary: it cannot be untangled.
+    pts = np.vstack([P, [[0.2, 0.2, 0.3]]])
+    tets = np.array([[0, 1, 2, 3], [1, 2, 3, 4], [0, 2, 1, 5]])
     with pytest.warns(RuntimeWarning, match=r"0 inverted or flat input tets made positive, 1 could not be"):
         p2, t2, r2, rep = tetopt.improve(pts, tets)
     assert rep["operations"]["still_inverted"] == 1
-    assert np.array_equal(p2, pts) and len(t2) == 3
+    assert np.array_equal(p2, pts)  # every vertex is on the boundary
     # A free vertex pushed through its neighbours: untangled, nothing left.
     g = np.array([[x, y, z] for z in (0.0, 1.0, 2.0) for y in (0.0, 1.0, 2.0) for x in (0.0, 1.0, 2.0)])
     mesh_tets = []

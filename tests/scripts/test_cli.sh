@@ -118,4 +118,13 @@ if [ -f "$MC" ] && /usr/bin/python3 -c "import meshio" 2>/dev/null; then
 else
   echo "skip referee checks (../shared/tools/meshcheck.py or meshio absent)"
 fi
+# A tet listed with two vertices exchanged (the same order as its neighbour
+# on their shared face): refused with exit 2, the tet named, nothing written.
+printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0.2 0.2 0.2 0\nTetrahedra\n4\n1 2 3 5 1\n1 4 2 5 1\n1 3 4 5 1\n2 3 4 5 1\nEnd\n' > "$W/misnumbered.mesh"
+"$T" improve "$W/misnumbered.mesh" -o "$W/misnumbered_out.mesh" -q 2> "$W/misnumbered.err"; rc=$?
+check "a misnumbered tet is refused (exit 2, named, nothing written)" \
+  '[ $rc -eq 2 ] && [ ! -e "$W/misnumbered_out.mesh" ] && grep -q "misnumbered.mesh: 1 tet is listed with vertices in the opposite order.*(tet 4," "$W/misnumbered.err"'
+sed 's/^2 3 4 5 1$/2 4 3 5 1/' "$W/misnumbered.mesh" > "$W/renumbered.mesh"
+"$T" improve "$W/renumbered.mesh" -o "$W/renumbered_out.mesh" -q; rc=$?
+check "the same mesh listed consistently is improved" '[ $rc -eq 0 ] && [ -s "$W/renumbered_out.mesh" ]'
 exit $fail

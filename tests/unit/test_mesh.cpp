@@ -212,3 +212,56 @@ TEST(Mesh, FaceBetweenGmshEntitiesIsConstrained) {
       }
   EXPECT_EQ(shared, 2);
 }
+
+// A tet listed with two vertices exchanged (its neighbours' order says the
+// other way round) is found, named, and repaired only when asked; a folded
+// tet whose vertex order agrees with its neighbours is not touched (the
+// untangler's job); a consistent mesh costs one scan and changes nothing.
+TEST(Mesh, InconsistentlyListedTetIsFoundAndRepairedOnlyOnRequest) {
+  const BoxMeshOptions box{.nx = 3, .ny = 3, .nz = 3, .jitter = 0.2, .regions = 2};
+  TetMesh ok = make_box_mesh(box);
+  ASSERT_TRUE(build_topology(ok).ok());
+  const auto tets0 = ok.tets;
+  OrientationReport r0;
+  EXPECT_TRUE(orient_consistently(ok, false, &r0).ok());
+  EXPECT_TRUE(orient_consistently(ok, true, &r0).ok());
+  EXPECT_EQ(ok.tets, tets0);
+  EXPECT_TRUE(r0.reoriented.empty());
+  const double volume0 = [&] {
+    double v = 0;
+    for (const auto& [ref, vol] : capture_invariants(ok).region_volume) v += vol;
+    return v;
+  }();
+
+  for (const int32_t bad : {0, 17, 100}) {  // a corner tet, one inside, one on the interface side
+    TetMesh m = make_box_mesh(box);
+    std::swap(m.tets[4 * static_cast<size_t>(bad) + 1], m.tets[4 * static_cast<size_t>(bad) + 3]);
+    OrientationReport r = normalize_orientation(m);
+    ASSERT_EQ(r.inverted, std::vector<int32_t>{bad});
+    ASSERT_TRUE(build_topology(m).ok());
+    const auto listed = m.tets;
+    Status s = orient_consistently(m, false, &r);
+    ASSERT_FALSE(s.ok());
+    EXPECT_EQ(s.code, ErrorCode::InvalidMesh);
+    EXPECT_NE(s.message.find("(tet " + std::to_string(bad + 1) + ","), std::string::npos) << s.message;
+    EXPECT_EQ(m.tets, listed);  // check only: nothing changed
+    ASSERT_TRUE(orient_consistently(m, true, &r).ok());
+    EXPECT_EQ(r.reoriented, std::vector<int32_t>{bad});
+    EXPECT_TRUE(r.inverted.empty());
+    EXPECT_EQ(r.negative, 0);
+    EXPECT_TRUE(validate(m).ok());
+    double volume = 0;
+    for (const auto& [ref, vol] : capture_invariants(m).region_volume) volume += vol;
+    EXPECT_NEAR(volume, volume0, 1e-12 * volume0);
+    EXPECT_TRUE(orient_consistently(m, false, &r).ok());  // consistent now
+  }
+
+  // Folded, not misnumbered: an interior vertex pushed through a face
+  // inverts tets whose order still agrees with their neighbours'.
+  TetMesh f = make_box_mesh({.nx = 2, .ny = 2, .nz = 2});
+  f.point(13)[0] += 1.6;  // the centre vertex (1,1,1) of the 3x3x3 lattice, moved past x = 2
+  OrientationReport rf = normalize_orientation(f);
+  ASSERT_FALSE(rf.inverted.empty());
+  ASSERT_TRUE(build_topology(f).ok());
+  EXPECT_TRUE(orient_consistently(f, false, &rf).ok());
+}
