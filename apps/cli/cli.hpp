@@ -2,6 +2,7 @@
 #pragma once
 #include <atomic>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tetopt/mesh.hpp"
@@ -28,6 +29,18 @@ int cmd_generate(const std::vector<std::string>& args);
 /// line) and returns false on failure.  Reports inverted/flat tets on stderr.
 /// threads: for building the topology (same result for every count).
 bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet, int threads = 1);
+
+/// Checks a command's files before any work: (what, path) pairs, the first
+/// one the input, the rest outputs (empty paths skipped).  Two of them
+/// naming the same file (the input included; a side output over the input or
+/// the main output would silently replace it) is a usage error: prints
+/// "CMD: WHAT and WHAT name the same file 'P'" and returns kExitUsage.  An
+/// output whose folder does not exist: prints "CMD: P: no such folder (for
+/// WHAT)" and returns kExitOutput, so that no output is written by a run
+/// that fails later on another one.  Returns kExitOk otherwise.  The main
+/// output may be the input (improve in place: written through a temporary).
+int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::string>>& files,
+                bool out_may_be_in);
 
 /// True when stderr is a terminal (progress lines go there).
 bool stderr_is_tty();

@@ -97,6 +97,11 @@ int cmd_improve(const std::vector<std::string>& args) {
   ImproveOptions& opt = a.opt;
   WriteOptions& wo = a.wo;
   const bool quiet = a.quiet, verbose = a.verbose;
+  if (const int rc = check_paths("tetopt improve",
+                                 {{"IN", in}, {"-o", out}, {"--report", report_path}, {"--field", field}, {"--html", html}},
+                                 true);
+      rc)
+    return rc;
   const auto t0 = std::chrono::steady_clock::now();
   TetMesh m;
   if (!load_mesh(in, m, quiet, opt.threads)) return kExitInput;

@@ -62,6 +62,54 @@ std::string id_list(const std::vector<int32_t>& ids, size_t max = 10) {
 }
 }  // namespace
 
+namespace {
+// The folder of a path ("." when it names none).
+std::string folder_of(const std::string& p) {
+  const size_t slash = p.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  return slash == 0 ? "/" : p.substr(0, slash);
+}
+// The same file: the same inode when both exist, else the same canonical
+// folder and name.
+bool same_file(const std::string& a, const std::string& b) {
+  struct stat sa {}, sb {};
+  const bool ea = ::stat(a.c_str(), &sa) == 0, eb = ::stat(b.c_str(), &sb) == 0;
+  if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+  if (ea != eb) return false;
+  char* ra = ::realpath(folder_of(a).c_str(), nullptr);
+  char* rb = ::realpath(folder_of(b).c_str(), nullptr);
+  const bool same = ra && rb && std::string(ra) == rb &&
+                    a.substr(a.find_last_of('/') + 1) == b.substr(b.find_last_of('/') + 1);
+  std::free(ra);
+  std::free(rb);
+  return same;
+}
+}  // namespace
+
+int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::string>>& files, bool out_may_be_in) {
+  for (size_t i = 0; i < files.size(); ++i) {
+    if (files[i].second.empty()) continue;
+    for (size_t j = i + 1; j < files.size(); ++j) {
+      if (files[j].second.empty() || (out_may_be_in && i == 0 && j == 1)) continue;
+      if (same_file(files[i].second, files[j].second)) {
+        std::fprintf(stderr, "%s: %s and %s name the same file '%s'\n", cmd, files[i].first.c_str(),
+                     files[j].first.c_str(), files[j].second.c_str());
+        return kExitUsage;
+      }
+    }
+  }
+  for (size_t i = 1; i < files.size(); ++i) {
+    if (files[i].second.empty()) continue;
+    struct stat st {};
+    const std::string dir = folder_of(files[i].second);
+    if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+      std::fprintf(stderr, "tetopt: %s: no such folder (for %s)\n", files[i].second.c_str(), files[i].first.c_str());
+      return kExitOutput;
+    }
+  }
+  return kExitOk;
+}
+
 bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
   const bool progress = !quiet && stderr_is_tty();
   if (progress) std::fprintf(stderr, "reading %s ...\r", path.c_str());
@@ -165,6 +213,8 @@ int cmd_quality(const std::vector<std::string>& args) {
     else { std::fprintf(stderr, "tetopt quality: unexpected argument '%s'\n", a.c_str()); return kExitUsage; }
   }
   if (in.empty()) { std::fputs(kQualityHelp, stderr); return kExitUsage; }
+  if (const int rc = check_paths("tetopt quality", {{"IN", in}, {"--field", field}, {"--html", html}}, false); rc)
+    return rc;
   TetMesh m;
   if (!load_mesh(in, m, quiet || json, threads)) return kExitInput;
   dopt.threads = threads;

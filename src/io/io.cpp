@@ -39,7 +39,9 @@ class MappedFile {
     if (ptr_ && ptr_ != MAP_FAILED) ::munmap(ptr_, size_);
   }
   bool open(const std::string& path) {
-    const int fd = ::open(path.c_str(), O_RDONLY);
+    // O_NONBLOCK: opening a FIFO (or a device) must not wait for a writer;
+    // fstat then turns anything but a regular file away.
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) return false;
     struct stat st {};
     if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size <= 0) {
@@ -176,8 +178,8 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
       std::string ele, face;
       if (s = read_file_bytes(base + ".node", data); !s) return s;
       if (s = read_file_bytes(base + ".ele", ele); !s) return s;
-      std::ifstream probe(base + ".face");
-      if (probe.good())
+      struct stat fst {};
+      if (::stat((base + ".face").c_str(), &fst) == 0)  // optional; anything but a file is an error
         if (s = read_file_bytes(base + ".face", face); !s) return s;
       s = parse_tetgen(data, ele, face, base, m);
       break;

@@ -127,4 +127,20 @@ check "a misnumbered tet is refused (exit 2, named, nothing written)" \
 sed 's/^2 3 4 5 1$/2 4 3 5 1/' "$W/misnumbered.mesh" > "$W/renumbered.mesh"
 "$T" improve "$W/renumbered.mesh" -o "$W/renumbered_out.mesh" -q; rc=$?
 check "the same mesh listed consistently is improved" '[ $rc -eq 0 ] && [ -s "$W/renumbered_out.mesh" ]'
+# Side outputs never replace the input or the main output (exit 1, the file
+# intact), and an output into a missing folder fails before anything is written.
+cp "$W/renumbered.mesh" "$W/keep.mesh"
+"$T" quality "$W/keep.mesh" --field "$W/keep.mesh" 2> /dev/null; rc=$?
+check "quality --field over IN: exit 1, IN intact" '[ $rc -eq 1 ] && cmp -s "$W/keep.mesh" "$W/renumbered.mesh"'
+"$T" improve "$W/keep.mesh" -o "$W/side.mesh" --html "$W/./keep.mesh" -q 2> /dev/null; rc=$?
+check "improve --html over IN: exit 1, IN intact, no output" '[ $rc -eq 1 ] && cmp -s "$W/keep.mesh" "$W/renumbered.mesh" && [ ! -e "$W/side.mesh" ]'
+"$T" improve "$W/keep.mesh" -o "$W/side.mesh" --report "$W/side.mesh" -q 2> /dev/null; rc=$?
+check "improve --report over -o: exit 1, nothing written" '[ $rc -eq 1 ] && [ ! -e "$W/side.mesh" ]'
+"$T" improve "$W/keep.mesh" -o "$W/side.mesh" --field "$W/no/such/f.vtu" -q 2> "$W/side.err"; rc=$?
+check "improve --field into a missing folder: exit 4, no output written" '[ $rc -eq 4 ] && [ ! -e "$W/side.mesh" ] && grep -q "no such folder" "$W/side.err"'
+# A FIFO as input is refused at once (opening it must not wait for a writer).
+if mkfifo "$W/fifo.mesh" 2> /dev/null; then
+  timeout 20 "$T" quality "$W/fifo.mesh" 2> "$W/fifo.err"; rc=$?
+  check "a FIFO as input: exit 2 without waiting" '[ $rc -eq 2 ] && grep -q "not a regular file" "$W/fifo.err"'
+fi
 exit $fail
