@@ -902,8 +902,13 @@ class VtuReader {
     return header_bytes_ == 8 ? gvscan::load<uint64_t>(p, big_) : gvscan::load<uint32_t>(p, big_);
   }
 
-  /// Decodes one header+data payload (p, n bytes available) into raw bytes.
-  Status payload(const DataArrayInfo& d, const char* p, size_t n, std::string& raw) const {
+  /// Decodes one header+data payload (p, n bytes available) into raw bytes;
+  /// `count` values of `vbytes` bytes each are expected.  A compressed
+  /// payload whose header promises another size is refused before anything
+  /// is inflated (a small file of zlib blocks of zeros could otherwise take
+  /// gigabytes only to be refused after).
+  Status payload(const DataArrayInfo& d, const char* p, size_t n, int64_t count, size_t vbytes,
+                 std::string& raw) const {
     const size_t hb = static_cast<size_t>(header_bytes_);
     if (!compressed_) {
       if (n < hb) return fail(ErrorCode::Parse, "truncated binary header of " + d.name, d.tag_pos);
@@ -925,6 +930,9 @@ class VtuReader {
     const uint64_t total = nb == 0 ? 0 : (nb - 1) * bs + (last == 0 ? bs : last);
     // zlib cannot expand more than about 1032:1; a larger claim is a lie.
     if (total > 1100 * (total_c + 64)) return fail(ErrorCode::Parse, "absurd uncompressed size in " + d.name, d.tag_pos);
+    if (total % vbytes != 0 || total / vbytes != static_cast<uint64_t>(count))
+      return fail(ErrorCode::Parse, "DataArray " + d.name + " holds " + std::to_string(total / vbytes) +
+                                        " values instead of " + std::to_string(count), d.tag_pos);
     raw.resize(static_cast<size_t>(total));
     size_t out_at = 0;
     for (uint64_t b = 0; b < nb; ++b) {
@@ -942,6 +950,8 @@ class VtuReader {
 #else
     (void)p;
     (void)n;
+    (void)count;
+    (void)vbytes;
     (void)raw;
     return fail(ErrorCode::Unsupported, "zlib-compressed VTU (tetopt was built without zlib)", d.tag_pos);
 #endif
@@ -991,7 +1001,7 @@ class VtuReader {
       std::string bytes;
       if (!gvscan::base64_decode(s_.substr(d.content_begin, d.content_end - d.content_begin), bytes))
         return fail(ErrorCode::Parse, "bad base64 in DataArray " + d.name, d.tag_pos);
-      if (Status st = payload(d, bytes.data(), bytes.size(), raw); !st) return st;
+      if (Status st = payload(d, bytes.data(), bytes.size(), count, static_cast<size_t>(t.bytes), raw); !st) return st;
     } else if (d.format == "appended") {
       if (appended_ == std::string_view::npos || d.offset < 0)
         return fail(ErrorCode::Parse, "appended DataArray " + d.name + " without AppendedData or offset", d.tag_pos);
@@ -1005,9 +1015,9 @@ class VtuReader {
         std::string bytes;
         if (!gvscan::base64_decode(s_.substr(start, stop - start), bytes))
           return fail(ErrorCode::Parse, "bad base64 in appended DataArray " + d.name, d.tag_pos);
-        if (Status st = payload(d, bytes.data(), bytes.size(), raw); !st) return st;
+        if (Status st = payload(d, bytes.data(), bytes.size(), count, static_cast<size_t>(t.bytes), raw); !st) return st;
       } else {
-        if (Status st = payload(d, s_.data() + start, appended_end_ - start, raw); !st) return st;
+        if (Status st = payload(d, s_.data() + start, appended_end_ - start, count, static_cast<size_t>(t.bytes), raw); !st) return st;
       }
     } else {
       return fail(ErrorCode::Unsupported, "DataArray format '" + shorten(d.format) + "'", d.tag_pos);
