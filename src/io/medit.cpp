@@ -392,9 +392,10 @@ class MeditAsciiReader {
       Status s;
       if (kw == "MeshVersionFormatted") {
         int64_t ver = 0;
+        const std::string found = shorten(lx_.peek());  // the token and its line, before it is consumed
+        const long at = lx_.line();
         if (!lx_.integer(ver) || ver < 0 || ver > 4)
-          return fail(ErrorCode::Parse, lx_.line(),
-                      "MeshVersionFormatted: expected a version 0..4, found '" + shorten(lx_.peek()) + "'");
+          return fail(ErrorCode::Parse, at, "MeshVersionFormatted: expected a version 0..4, found '" + found + "'");
       } else if (kw == "Dimension") {
         int64_t d = 0;
         if (!lx_.integer(d))
@@ -833,9 +834,9 @@ class MeditBinaryReader {
     const uint64_t room = (limit_ - off) / rec_size;
     if (static_cast<uint64_t>(n) > room)
       return fail(ErrorCode::Parse, 0,
-                  std::string(kw) + ": count " + std::to_string(n) + " needs " +
-                      std::to_string(static_cast<uint64_t>(n) * rec_size) + " bytes but only " +
-                      std::to_string(limit_ - off) + " remain (truncated file or lying count)");
+                  std::string(kw) + ": count " + std::to_string(n) + " needs more than the " +
+                      std::to_string(limit_ - off) + " bytes that remain (" + std::to_string(rec_size) +
+                      " per record; truncated file or lying count)");
     if (n > kMaxId)
       return fail(ErrorCode::Unsupported, 0, std::string(kw) + ": count exceeds the 32-bit index range");
     return Status::success();
@@ -882,7 +883,8 @@ class MeditBinaryReader {
         const int64_t v = int_at(off + k * is);
         if (v < 1 || v > kMaxId)
           return fail(ErrorCode::InvalidMesh, static_cast<long>(i + 1),
-                      std::string(kw) + ": vertex index " + std::to_string(v) + " out of range 1..N");
+                      std::string(kw) + ": vertex index " + std::to_string(v) +
+                          (v < 1 ? " is below 1 (indices count from 1)" : " exceeds the 32-bit index range"));
         ids[static_cast<size_t>(i) * nper + k] = static_cast<int32_t>(v - 1);
       }
       if (Status s = ref_at(off + nper * is, kw, i + 1, refs[static_cast<size_t>(i)]); !s) return s;
@@ -899,7 +901,8 @@ class MeditBinaryReader {
       const int64_t v = int_at(off);
       if (v < 1 || v > kMaxId)
         return fail(ErrorCode::InvalidMesh, static_cast<long>(i + 1),
-                    std::string(kw) + ": index " + std::to_string(v) + " out of range 1..N");
+                    std::string(kw) + ": index " + std::to_string(v) +
+                        (v < 1 ? " is below 1 (indices count from 1)" : " exceeds the 32-bit index range"));
       ids[static_cast<size_t>(i)] = static_cast<int32_t>(v - 1);
     }
     return Status::success();

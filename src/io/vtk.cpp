@@ -20,6 +20,7 @@
 // written back unchanged.  Coordinates declared float are read as float32
 // (the value VTK and meshio hold) and widened to double.
 #include <algorithm>
+#include <cmath>
 #include <cctype>
 #include <string>
 #include <vector>
@@ -438,7 +439,9 @@ class LegacyReader {
       if (at >= v.size()) return fail(ErrorCode::Parse, "CELLS data ends inside cell " + std::to_string(c));
       const double k = v[at++];
       if (k < 0 || k > static_cast<double>(v.size() - at))
-        return fail(ErrorCode::Parse, "cell " + std::to_string(c) + " has a bad point count " + std::to_string(k));
+        return fail(ErrorCode::Parse, "cell " + std::to_string(c) + " has a bad point count " +
+                                          (k == std::floor(k) && std::fabs(k) < 1e15 ? std::to_string(static_cast<int64_t>(k))
+                                                                                   : shorten(std::to_string(k))));
       for (int64_t j = 0; j < static_cast<int64_t>(k); ++j) g_.conn.push_back(static_cast<int64_t>(v[at++]));
       g_.offsets[static_cast<size_t>(c) + 1] = static_cast<int64_t>(g_.conn.size());
     }

@@ -390,6 +390,9 @@ TEST(IoMedit, AsciiHostileInput) {
     t.replace(t.find("0 0 1 4"), 7, "0 0 1e999 4");
     expect_ascii_error(t, ErrorCode::Parse, 8, "expected a coordinate");
   }
+  // A version out of range: its own line and token (not the next ones).
+  expect_ascii_error("MeshVersionFormatted 5\nDimension 3\n", ErrorCode::Parse, 1, "found '5'");
+  expect_ascii_error("MeshVersionFormatted\n\n  x\nDimension 3\n", ErrorCode::Parse, 3, "found 'x'");
   // Index out of range, zero, negative.
   for (const char* bad : {"1 2 3 5 9", "0 2 3 4 9", "1 -2 3 4 9"}) {
     std::string t = one;
@@ -512,7 +515,7 @@ TEST(IoMedit, BinaryHostileInput) {
     expect_err(b, ErrorCode::InvalidMesh, "vertex index 5 out of range 1..4");
     bad = 0;
     std::memcpy(&b[ids], &bad, 4);
-    expect_err(b, ErrorCode::InvalidMesh, "vertex index 0 out of range");
+    expect_err(b, ErrorCode::InvalidMesh, "vertex index 0 is below 1 (indices count from 1)");
   }
   // Missing End.
   {
