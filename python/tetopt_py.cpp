@@ -394,7 +394,8 @@ tetopt::OrientationReport prepare(TetMesh& m) {
   Status s;
   {
     py::gil_scoped_release nogil;
-    s = tetopt::build_topology(m);
+    s = tetopt::check_measurable(m);
+    if (s) s = tetopt::build_topology(m);
     if (s) s = tetopt::orient_consistently(m, false, &orient);
   }
   if (!s) throw py::value_error(s.message);

@@ -53,24 +53,13 @@ Status check_arrays(const TetMesh& m, const std::string& name, int threads) {
         },
         [](int64_t x, int64_t y) { return std::min(x, y); });
   };
-  // Coordinates beyond 1e60 in magnitude are refused with NaN and infinity:
-  // the quality measures take fourth and fifth powers of edge lengths (areas
-  // squared times lengths), which overflow a double from about 1e76 on, and
-  // every tet then measured alpha 0, "flat", in silence.
-  constexpr double kMaxCoord = 1e60;
   const int64_t bad_v = first_bad(nv, [&](int64_t v) {
     const double* p = m.point(static_cast<int32_t>(v));
-    return !(std::fabs(p[0]) <= kMaxCoord) || !(std::fabs(p[1]) <= kMaxCoord) || !(std::fabs(p[2]) <= kMaxCoord);
+    return !std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]);
   });
-  if (bad_v < nv) {
-    const double* p = m.point(static_cast<int32_t>(bad_v));
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      return Status::error(ErrorCode::InvalidMesh,
-                           name + ": vertex " + std::to_string(bad_v + 1) + " has a NaN or infinite coordinate");
-    return Status::error(ErrorCode::InvalidMesh, name + ": vertex " + std::to_string(bad_v + 1) +
-                                                     " has a coordinate beyond 1e60 in magnitude, where the quality "
-                                                     "measures overflow (rescale the mesh)");
-  }
+  if (bad_v < nv)
+    return Status::error(ErrorCode::InvalidMesh,
+                         name + ": vertex " + std::to_string(bad_v + 1) + " has a NaN or infinite coordinate");
   const int64_t bad_t = first_bad(nt, [&](int64_t t) {
     const int32_t* v = m.tet(static_cast<int32_t>(t));
     for (int k = 0; k < 4; ++k)
@@ -149,6 +138,29 @@ OrientationReport normalize_orientation(TetMesh& m, int threads) {
     else if (sign[t] == 0) r.flat_tets.push_back(t);
   }
   return r;
+}
+
+Status check_measurable(const TetMesh& m, const std::string& name, int threads) {
+  // Fourth and fifth powers of edge lengths (areas squared times lengths)
+  // overflow a double from about 1e76 on: every tet then measured alpha 0,
+  // "flat", in silence.  1e60 leaves room.
+  constexpr double kMaxCoord = 1e60;
+  const int64_t nv = m.nv();
+  const int64_t bad = detail::parallel_reduce_blocks(
+      nv, threads, nv,
+      [&](int64_t b, int64_t e) {
+        for (int64_t v = b; v < e; ++v) {
+          const double* p = m.point(static_cast<int32_t>(v));
+          if (!(std::fabs(p[0]) <= kMaxCoord) || !(std::fabs(p[1]) <= kMaxCoord) || !(std::fabs(p[2]) <= kMaxCoord))
+            return v;
+        }
+        return nv;
+      },
+      [](int64_t x, int64_t y) { return std::min(x, y); });
+  if (bad == nv) return Status::success();
+  return Status::error(ErrorCode::InvalidMesh, (name.empty() ? "" : name + ": ") + "vertex " + std::to_string(bad + 1) +
+                                                   " has a coordinate beyond 1e60 in magnitude, where the quality "
+                                                   "measures overflow (rescale the mesh)");
 }
 
 Status compact_vertices(TetMesh& m, const std::vector<int32_t>& drop, std::vector<int32_t>* map) {

@@ -127,7 +127,8 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
     return false;
   }
   if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
-  s = build_topology(m, threads);
+  s = check_measurable(m, "", threads);
+  if (s) s = build_topology(m, threads);
   if (s) s = orient_consistently(m, false, &orient, threads);
   if (progress) std::fputs("\033[K", stderr);
   if (!s) {

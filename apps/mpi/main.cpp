@@ -377,6 +377,7 @@ int leader(const Args& a, int size) {
   TetMesh g;
   OrientationReport orient;
   Status s = read_mesh(a.in, g, &orient, kRank0Threads);
+  if (s) s = check_measurable(g, "", kRank0Threads);
   if (s) s = build_topology(g, kRank0Threads);
   if (s) s = orient_consistently(g, false, &orient, kRank0Threads);
   if (!s) {

@@ -113,6 +113,14 @@ struct TetMesh {
 /// reported whatever the count).
 Status check_arrays(const TetMesh& m, const std::string& name = "mesh", int threads = 1);
 
+/// Whether the quality measures can be computed: every coordinate at most
+/// 1e60 in magnitude (or NaN-free; check_arrays refuses NaN and infinity).
+/// The readers keep any finite value (convert loses no digit); quality,
+/// improve, tetopt-mpi and the Python module refuse the rest with this
+/// (InvalidMesh, naming the first vertex, 1-based; `name` prefixes the
+/// message unless empty).
+Status check_measurable(const TetMesh& m, const std::string& name = "mesh", int threads = 1);
+
 /// Result of looking at every tet's exact orientation.
 struct OrientationReport {
   int64_t positive = 0, negative = 0, flat = 0;

@@ -143,4 +143,11 @@ if mkfifo "$W/fifo.mesh" 2> /dev/null; then
   timeout 20 "$T" quality "$W/fifo.mesh" 2> "$W/fifo.err"; rc=$?
   check "a FIFO as input: exit 2 without waiting" '[ $rc -eq 2 ] && grep -q "not a regular file" "$W/fifo.err"'
 fi
+# Coordinates where alpha would overflow: quality and improve refuse them
+# (exit 2, the vertex named); convert keeps every digit.
+printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 0\n1e70 0 0 0\n0 1e70 0 0\n0 0 1e70 0\nTetrahedra\n1\n1 2 3 4 1\nEnd\n' > "$W/huge.mesh"
+"$T" quality "$W/huge.mesh" -q 2> "$W/huge.err"; rc=$?
+check "coordinates of 1e70: quality exits 2 naming the vertex" '[ $rc -eq 2 ] && grep -q "huge.mesh: vertex 2 has a coordinate beyond 1e60" "$W/huge.err"'
+"$T" convert "$W/huge.mesh" "$W/huge.meshb" && "$T" convert "$W/huge.meshb" "$W/huge2.mesh"; rc=$?
+check "coordinates of 1e70: convert round-trips them" '[ $rc -eq 0 ] && grep -q "^1e+70 0 0" "$W/huge2.mesh"'
 exit $fail
