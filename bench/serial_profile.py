@@ -26,7 +26,7 @@ PHASES = ["tetopt::read_mesh", "tetopt::build_topology", "tetopt::compute_stats"
           "tetopt::check_invariants", "tetopt::smooth_pass", "tetopt::pair_flip_pass",
           "tetopt::remove_all_boundary_tets", "tetopt::dihedral_pass", "tetopt::flip_pass", "tetopt::write_mesh",
           "tetopt::diagnose", "tetopt::relax", "tetopt::improve", "tetopt_cli::cmd_improve"]
-DETAILS = ["TopoEditor::TopoEditor", "TopoEditor::finish", "TopoEditor::commit", "TopoEditor::improve_tet_pair",
+DETAILS = ["TopoEditor::TopoEditor", "TopoEditor::finish(", "TopoEditor::finish_plan", "TopoEditor::commit", "TopoEditor::improve_tet_pair",
            "TopoEditor::improve_tet(", "TopoEditor::improve_tets", "build_vertex_tets", "page_fault", "sysmalloc",
            "memset", "memmove", "writev", "TopoEditor::plan_best", "fill_cache", "min_cached"]
 HEADER = re.compile(r"^\s*(\d+)\s+(\d+\.\d+):")
