@@ -1,8 +1,6 @@
 // Consistent combinatorial orientation of the tets (orient_consistently).
 #include <algorithm>
-#include <atomic>
 #include <cstdint>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -15,18 +13,18 @@ namespace tetopt {
 
 namespace {
 
-// Parity of the permutation taking tet t's vertex list to (the vertices of
-// face f in ascending order, then the apex f).  Two tets sharing a face agree
-// on orientation exactly when these parities differ: with both lists
-// positively oriented, orient3d(a,b,c,p) and orient3d(a,b,c,q) for the two
-// apexes p, q on opposite sides of the face have opposite signs.
-int face_parity(const int32_t* v, int f) {
-  int64_t key[4];
-  for (int k = 0; k < 4; ++k) key[k] = k == f ? std::numeric_limits<int64_t>::max() : v[k];
-  int inv = 0;
-  for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j) inv += key[i] > key[j];
-  return inv & 1;
+// Bit f: parity of the permutation taking the tet's vertex list to (the
+// vertices of face f in ascending order, then the apex f).  Two tets sharing
+// a face agree on orientation exactly when their bits for it differ: with
+// both lists positively oriented, orient3d(a,b,c,p) and orient3d(a,b,c,q)
+// for the two apexes p, q on opposite sides of the face have opposite signs.
+// With the apex ranked above every vertex, the inversions are those among
+// the other three plus the 3 - f pairs (f, j > f).
+uint8_t face_parities(const int32_t* v) {
+  const int g01 = v[0] > v[1], g02 = v[0] > v[2], g03 = v[0] > v[3], g12 = v[1] > v[2], g13 = v[1] > v[3],
+            g23 = v[2] > v[3];
+  const int p0 = g12 + g13 + g23 + 3, p1 = g02 + g03 + g23 + 2, p2 = g01 + g03 + g13 + 1, p3 = g01 + g02 + g12;
+  return static_cast<uint8_t>((p0 & 1) | (p1 & 1) << 1 | (p2 & 1) << 2 | (p3 & 1) << 3);
 }
 
 int exact_sign(const TetMesh& m, int32_t t) {
@@ -40,20 +38,26 @@ Status orient_consistently(TetMesh& m, bool repair, OrientationReport* r, int th
   const int32_t nt = m.nt();
   if (m.adj.size() != 4 * static_cast<size_t>(nt))
     return Status::error(ErrorCode::Invariant, "orient_consistently: topology not built");
-  // Does any shared face see the same orientation from both sides?
+  // Does any shared face see the same orientation from both sides?  One
+  // byte of face parities per tet first (a sequential pass over the tets),
+  // then each face compared once, from its smaller tet, in that byte array.
+  std::vector<uint8_t> par(static_cast<size_t>(nt));
+  detail::parallel_for_each(nt, threads, [&](int64_t t) { par[t] = face_parities(m.tet(static_cast<int32_t>(t))); });
   auto disagrees = [&](int32_t t, int f) {
     const int32_t n = m.adj[4 * static_cast<size_t>(t) + f];
-    return n >= 0 && face_parity(m.tet(t), f) == face_parity(m.tet(n / 4), n % 4);
+    return n >= 0 && (par[t] >> f & 1) == (par[n / 4] >> (n % 4) & 1);
   };
-  std::atomic<bool> any{false};
-  detail::parallel_blocks(nt, threads, [&](int64_t b, int64_t e) {
-    for (auto t = static_cast<int32_t>(b); t < e && !any.load(std::memory_order_relaxed); ++t)
-      for (int f = 0; f < 4; ++f)
-        if (disagrees(t, f)) {
-          any.store(true, std::memory_order_relaxed);
-          break;
-        }
-  });
+  const bool any = detail::parallel_reduce_blocks(
+      nt, threads, false,
+      [&](int64_t b, int64_t e) {
+        for (auto t = static_cast<int32_t>(b); t < e; ++t)
+          for (int f = 0; f < 4; ++f) {
+            const int32_t n = m.adj[4 * static_cast<size_t>(t) + f];
+            if (n / 4 > t && (par[t] >> f & 1) == (par[n / 4] >> (n % 4) & 1)) return true;
+          }
+        return false;
+      },
+      [](bool x, bool y) { return x || y; });
   if (!any) return Status::success();
 
   // Serial from here (rare): flip[t] = 1 reverses tet t.  Each
