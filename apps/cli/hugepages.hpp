@@ -52,7 +52,6 @@
 #pragma once
 #include <malloc.h>
 
-#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <cstdlib>
@@ -102,37 +101,27 @@ inline void prefault_heap(size_t bytes, int threads) {
   const int cores = static_cast<int>(std::thread::hardware_concurrency());
   if (threads <= 0 || (cores > 0 && threads > cores)) threads = cores;  // no more helpers than cores
   if (threads <= 1 || !g_keeps_freed_memory || bytes < (size_t{4} << 20) || std::getenv("TETOPT_NO_PREFAULT")) return;
-  // As few pieces as possible, each below the 32 MiB mmap threshold
-  // (keep_freed_memory), so that they come from the heap's top, one after
-  // the other, and coalesce into one free chunk when freed.  Each malloc
-  // writes the new top chunk's header just past its piece, a first touch on
-  // the main thread (2 MiB with huge pages): the ninth session's 8 MiB pieces
-  // made that most of the prefault's serial page faults, so a 22 MB request
-  // is now one piece instead of three.  Nothing else is allocated between
-  // the pieces (both vectors are reserved first): a vector growing between
-  // two pieces left them apart, and a 24 MiB request then grew the heap.
-  constexpr size_t kMaxPiece = kMmapThreshold - (size_t{1} << 20), kSlice = size_t{2} << 20, kPage = 4096;
-  const size_t npieces = (bytes + kMaxPiece - 1) / kMaxPiece;
-  const size_t piece_bytes = ((bytes + npieces - 1) / npieces + kPage - 1) / kPage * kPage;
+  // Pieces well below the 32 MiB mmap threshold (keep_freed_memory), so
+  // that they come from the heap's top, one after the other, and coalesce
+  // into one free chunk when freed.  Nothing else is allocated between them
+  // (both vectors are reserved first): a vector growing between two pieces
+  // left them apart, and a 24 MiB request then grew the heap.
+  constexpr size_t kPiece = size_t{8} << 20, kPage = 4096;
   std::vector<char*> piece;
   std::vector<std::thread> helper;
-  piece.reserve(npieces);
+  piece.reserve((bytes + kPiece - 1) / kPiece);
   helper.reserve(static_cast<size_t>(threads - 1));
-  for (size_t i = 0; i < npieces; ++i) {
-    char* p = static_cast<char*>(std::malloc(piece_bytes));
+  for (size_t b = 0; b < bytes; b += kPiece) {
+    char* p = static_cast<char*>(std::malloc(kPiece));
     if (!p) break;
     piece.push_back(p);
   }
-  // Slices of 2 MiB of every piece, taken in turn by whichever thread is
-  // free (the helpers start later than the main thread).
-  const size_t per_piece = (piece_bytes + kSlice - 1) / kSlice, nslices = piece.size() * per_piece;
+  // Pieces taken in turn by whichever thread is free (the helpers start
+  // later than the main thread).
   std::atomic<size_t> next{0};
   auto touch = [&] {
-    for (size_t i; (i = next.fetch_add(1, std::memory_order_relaxed)) < nslices;) {
-      volatile char* p = piece[i / per_piece];
-      const size_t b = i % per_piece * kSlice, e = std::min(piece_bytes, b + kSlice);
-      for (size_t o = b; o < e; o += kPage) p[o] = 0;
-    }
+    for (size_t i; (i = next.fetch_add(1, std::memory_order_relaxed)) < piece.size();)
+      for (size_t o = 0; o < kPiece; o += kPage) reinterpret_cast<volatile char*>(piece[i])[o] = 0;
   };
   try {
     for (int t = 1; t < threads; ++t) helper.emplace_back(touch);
