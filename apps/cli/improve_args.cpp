@@ -1,6 +1,7 @@
 // Shared parser of the improve options (see improve_args.hpp).
 #include "improve_args.hpp"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 
@@ -18,8 +19,9 @@ bool to_double(const std::string& v, double& out) {
 
 bool to_int(const std::string& v, long long& out) {
   char* end = nullptr;
+  errno = 0;
   out = std::strtoll(v.c_str(), &end, 10);
-  return !v.empty() && *end == '\0';
+  return !v.empty() && *end == '\0' && errno != ERANGE;  // 1e20 is not LLONG_MAX
 }
 
 }  // namespace
@@ -107,6 +109,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
       a.opt.iterations = static_cast<int>(n);
     } else if (o == "--seed") {
       if (!integer(n)) return R::Error;
+      if (n < 0) return bad("--seed must be a whole number from 0 on");
       a.opt.seed = static_cast<uint64_t>(n);
     } else if (o == "--threads") {
       if (!integer(n)) return R::Error;

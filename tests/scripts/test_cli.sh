@@ -18,6 +18,9 @@ done
 check "missing input exits 2" '[ $rc -eq 2 ]'
 check "missing input message names the file" 'grep -q "none.mesh" "$W/err"'
 "$T" improve in.mesh --weight 1.5 -o "$W/x.mesh" 2> /dev/null; check "bad --weight exits 1" '[ $? -eq 1 ]'
+for bad in -5 99999999999999999999; do   # negative, or past 64 bits (was taken as LLONG_MAX)
+  "$T" improve in.mesh --seed $bad -o "$W/x.mesh" 2> /dev/null; check "--seed $bad exits 1" '[ $? -eq 1 ]'
+done
 
 # A malformed file: one line naming file and line, exit 2, nothing written.
 printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\nTetrahedra\n1\n1 2 3 9 1\nEnd\n' > "$W/bad.mesh"
