@@ -33,6 +33,22 @@ void face_key(const TetMesh& m, int32_t t, int f, int32_t out[3]) {
   sort3(out[0], out[1], out[2]);
 }
 
+namespace {
+// The first index in [0, n) where bad(i) holds (n when none), found over
+// fixed blocks in parallel: the same answer for every thread count.
+template <class Bad>
+int64_t first_index(int64_t n, int threads, const Bad& bad) {
+  return detail::parallel_reduce_blocks(
+      n, threads, n,
+      [&](int64_t b, int64_t e) {
+        for (int64_t i = b; i < e; ++i)
+          if (bad(i)) return i;
+        return n;
+      },
+      [](int64_t x, int64_t y) { return std::min(x, y); });
+}
+}  // namespace
+
 Status check_arrays(const TetMesh& m, const std::string& name, int threads) {
   if (m.xyz.size() % 3 != 0 || m.tets.size() % 4 != 0)
     return Status::error(ErrorCode::InvalidMesh, name + ": inconsistent array sizes");
@@ -42,17 +58,7 @@ Status check_arrays(const TetMesh& m, const std::string& name, int threads) {
     return Status::error(ErrorCode::InvalidMesh, name + ": tet_ref size differs from the tet count");
   if (!m.vert_ref.empty() && m.vert_ref.size() != static_cast<size_t>(nv))
     return Status::error(ErrorCode::InvalidMesh, name + ": vert_ref size differs from the vertex count");
-  // The first offending index of a scan, found over fixed blocks in parallel.
-  auto first_bad = [&](int64_t n, auto bad) {
-    return detail::parallel_reduce_blocks(
-        n, threads, n,
-        [&](int64_t b, int64_t e) {
-          for (int64_t i = b; i < e; ++i)
-            if (bad(i)) return i;
-          return n;
-        },
-        [](int64_t x, int64_t y) { return std::min(x, y); });
-  };
+  auto first_bad = [&](int64_t n, auto bad) { return first_index(n, threads, bad); };
   const int64_t bad_v = first_bad(nv, [&](int64_t v) {
     const double* p = m.point(static_cast<int32_t>(v));
     return !std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]);
@@ -146,17 +152,10 @@ Status check_measurable(const TetMesh& m, const std::string& name, int threads) 
   // "flat", in silence.  1e60 leaves room.
   constexpr double kMaxCoord = 1e60;
   const int64_t nv = m.nv();
-  const int64_t bad = detail::parallel_reduce_blocks(
-      nv, threads, nv,
-      [&](int64_t b, int64_t e) {
-        for (int64_t v = b; v < e; ++v) {
-          const double* p = m.point(static_cast<int32_t>(v));
-          if (!(std::fabs(p[0]) <= kMaxCoord) || !(std::fabs(p[1]) <= kMaxCoord) || !(std::fabs(p[2]) <= kMaxCoord))
-            return v;
-        }
-        return nv;
-      },
-      [](int64_t x, int64_t y) { return std::min(x, y); });
+  const int64_t bad = first_index(nv, threads, [&](int64_t v) {
+    const double* p = m.point(static_cast<int32_t>(v));
+    return !(std::fabs(p[0]) <= kMaxCoord) || !(std::fabs(p[1]) <= kMaxCoord) || !(std::fabs(p[2]) <= kMaxCoord);
+  });
   if (bad == nv) return Status::success();
   return Status::error(ErrorCode::InvalidMesh, (name.empty() ? "" : name + ": ") + "vertex " + std::to_string(bad + 1) +
                                                    " has a coordinate beyond 1e60 in magnitude, where the quality "

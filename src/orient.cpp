@@ -51,10 +51,8 @@ Status orient_consistently(TetMesh& m, bool repair, OrientationReport* r, int th
       nt, threads, false,
       [&](int64_t b, int64_t e) {
         for (auto t = static_cast<int32_t>(b); t < e; ++t)
-          for (int f = 0; f < 4; ++f) {
-            const int32_t n = m.adj[4 * static_cast<size_t>(t) + f];
-            if (n / 4 > t && (par[t] >> f & 1) == (par[n / 4] >> (n % 4) & 1)) return true;
-          }
+          for (int f = 0; f < 4; ++f)
+            if (m.adj[4 * static_cast<size_t>(t) + f] / 4 > t && disagrees(t, f)) return true;
         return false;
       },
       [](bool x, bool y) { return x || y; });
@@ -87,9 +85,9 @@ Status orient_consistently(TetMesh& m, bool repair, OrientationReport* r, int th
           stack.push_back(n / 4);
         } else if (flip[n / 4] != want) {
           return Status::error(ErrorCode::InvalidMesh,
-                               "tets " + std::to_string(t) + " and " + std::to_string(n / 4) +
-                                   ": the tets around them admit no consistent orientation (not a valid "
-                                   "tetrahedral mesh)");
+                               "tets " + std::to_string(t + 1) + " and " + std::to_string(n / 4 + 1) +
+                                   " (counted from 1): the tets around them admit no consistent orientation "
+                                   "(not a valid tetrahedral mesh)");
         }
       }
     }

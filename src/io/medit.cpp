@@ -656,6 +656,11 @@ class MeditAsciiReader {
 
 // --------------------------------------------------------------- binary ----
 
+// Why a 1-based index read from a .meshb file is refused.
+const char* bad_index(int64_t v) {
+  return v < 1 ? " is below 1 (indices count from 1)" : " exceeds the 32-bit index range";
+}
+
 class MeditBinaryReader {
  public:
   MeditBinaryReader(std::string_view data, const std::string& name)
@@ -884,7 +889,7 @@ class MeditBinaryReader {
         if (v < 1 || v > kMaxId)
           return fail(ErrorCode::InvalidMesh, static_cast<long>(i + 1),
                       std::string(kw) + ": vertex index " + std::to_string(v) +
-                          (v < 1 ? " is below 1 (indices count from 1)" : " exceeds the 32-bit index range"));
+                          bad_index(v));
         ids[static_cast<size_t>(i) * nper + k] = static_cast<int32_t>(v - 1);
       }
       if (Status s = ref_at(off + nper * is, kw, i + 1, refs[static_cast<size_t>(i)]); !s) return s;
@@ -902,7 +907,7 @@ class MeditBinaryReader {
       if (v < 1 || v > kMaxId)
         return fail(ErrorCode::InvalidMesh, static_cast<long>(i + 1),
                     std::string(kw) + ": index " + std::to_string(v) +
-                        (v < 1 ? " is below 1 (indices count from 1)" : " exceeds the 32-bit index range"));
+                        bad_index(v));
       ids[static_cast<size_t>(i)] = static_cast<int32_t>(v - 1);
     }
     return Status::success();

@@ -913,12 +913,20 @@ class VtuReader {
   Status payload(const DataArrayInfo& d, const char* p, size_t n, int64_t count, size_t vbytes,
                  std::string& raw) const {
     const size_t hb = static_cast<size_t>(header_bytes_);
+    auto wrong_size = [&](uint64_t bytes) {
+      return bytes % vbytes != 0 || bytes / vbytes != static_cast<uint64_t>(count);
+    };
+    auto size_error = [&](uint64_t bytes) {
+      return fail(ErrorCode::Parse, "DataArray " + d.name + " holds " + std::to_string(bytes / vbytes) +
+                                        " values instead of " + std::to_string(count), d.tag_pos);
+    };
     if (!compressed_) {
       if (n < hb) return fail(ErrorCode::Parse, "truncated binary header of " + d.name, d.tag_pos);
       const uint64_t len = header_word(p);
       if (len > n - hb)
         return fail(ErrorCode::Parse, "binary array " + d.name + " claims " + std::to_string(len) + " bytes but " +
                                           std::to_string(n - hb) + " remain (truncated file?)", d.tag_pos);
+      if (wrong_size(len)) return size_error(len);
       raw.assign(p + hb, static_cast<size_t>(len));
       return Status::success();
     }
@@ -933,9 +941,7 @@ class VtuReader {
     const uint64_t total = nb == 0 ? 0 : (nb - 1) * bs + (last == 0 ? bs : last);
     // zlib cannot expand more than about 1032:1; a larger claim is a lie.
     if (total > 1100 * (total_c + 64)) return fail(ErrorCode::Parse, "absurd uncompressed size in " + d.name, d.tag_pos);
-    if (total % vbytes != 0 || total / vbytes != static_cast<uint64_t>(count))
-      return fail(ErrorCode::Parse, "DataArray " + d.name + " holds " + std::to_string(total / vbytes) +
-                                        " values instead of " + std::to_string(count), d.tag_pos);
+    if (wrong_size(total)) return size_error(total);
     raw.resize(static_cast<size_t>(total));
     size_t out_at = 0;
     for (uint64_t b = 0; b < nb; ++b) {
@@ -1025,10 +1031,7 @@ class VtuReader {
     } else {
       return fail(ErrorCode::Unsupported, "DataArray format '" + shorten(d.format) + "'", d.tag_pos);
     }
-    const size_t bytes = static_cast<size_t>(t.bytes);
-    if (raw.size() != static_cast<size_t>(count) * bytes)
-      return fail(ErrorCode::Parse, "DataArray " + d.name + " holds " + std::to_string(raw.size() / bytes) +
-                                        " values instead of " + std::to_string(count), d.tag_pos);
+    const size_t bytes = static_cast<size_t>(t.bytes);  // raw holds count values (payload checked)
     a.values.resize(static_cast<size_t>(count));
     for (size_t i = 0; i < a.values.size(); ++i) a.values[i] = binary_value(raw.data() + i * bytes, t, big_);
     return Status::success();
