@@ -13,6 +13,12 @@ namespace tetopt_mpi {
 
 using namespace tetopt;
 
+namespace {
+// Rounds with more active tets than this weigh tets with a constrained vertex
+// more (see partition_tets).
+constexpr int32_t kBalanceBoundaryAbove = 100000;
+}  // namespace
+
 std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& opt, std::string& err, bool* contracted) {
   const int32_t ntg = g.nt();
   const bool all = !opt.active || opt.active->size() != static_cast<size_t>(ntg);
@@ -46,6 +52,7 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
   const std::vector<uint8_t>* avoid = opt.avoid && opt.avoid->size() == static_cast<size_t>(g.nv()) ? opt.avoid : nullptr;
   const bool have_alpha = opt.alpha && opt.alpha->size() == static_cast<size_t>(ntg);
   const bool contract = nt > opt.contract_above;
+  const bool balance_boundary = nt > kBalanceBoundaryAbove;
   if (contracted) *contracted = contract;
   // Per active tet its group key (its smallest vertex, or itself), and its
   // work weight in one byte (0: not active).
@@ -55,13 +62,22 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
     const int32_t t = tet_of[static_cast<size_t>(j)];
     const int32_t* tv = g.tet(t);
     key[t] = contract ? std::min(std::min(tv[0], tv[1]), std::min(tv[2], tv[3])) : t;
-    // Work weight: 4 below the threshold, 1 otherwise.  (Tried: +2 for a
-    // tet with a boundary vertex, which such tets cost the optimiser; it
-    // balanced flange_large's round-1 parts, 3.4 s / 3.3 s instead of
-    // 3.0 s / 3.8 s, but with --allow-insert the 12,288-tet test box ended
-    // on its 0.4886 plateau for 3 of seeds 0-5 instead of 2, single
-    // process 1 of 6.  Not kept.)
-    wt[t] = (have_alpha ? (*opt.alpha)[t] : tet_alpha(g, t)) < opt.threshold ? 4 : 1;
+    // Work weight: 1, plus 3 below the threshold, plus 1 with a constrained
+    // vertex.  Without the last term, METIS's halves of flange_large (2.0M
+    // tets, 2 ranks) held 188k and 239k tets with a constrained vertex, and
+    // their round-1 improve took 4.2-5.0 s against 6.1-6.7 s (3 runs); with
+    // it, 4.3-4.6 s against 4.3-4.7 s (3 runs), the same total work.  (A
+    // per-tet cost fitted to those counts explains only part of the gap:
+    // the poor tets near the boundary are the ones improve() retries.)
+    // Only rounds with more than kBalanceBoundaryAbove active tets use the
+    // term, where a part costs seconds: on small meshes it saves
+    // milliseconds, and any change of the cut moves the worst alpha between
+    // the plateaus the optimiser ends on (the 12,288-tet test box at 4
+    // ranks: 0.4886 without the term, 0.4275 with it, 0.5087 with a term of
+    // 2; `tetopt improve` run again on the 0.4275 result stays there, so it
+    // is a different local optimum, not a frozen tet).
+    const double a = have_alpha ? (*opt.alpha)[t] : tet_alpha(g, t);
+    wt[t] = static_cast<uint8_t>((a < opt.threshold ? 4 : 1) + (balance_boundary && g.tet_kind[t] > 0 ? 1 : 0));
   });
   // Graph vertex of each key, keys in increasing order.
   std::vector<int32_t> gid(static_cast<size_t>(contract ? g.nv() : ntg), -1), group_key;
