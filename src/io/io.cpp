@@ -164,6 +164,14 @@ Status write_file_atomic(const std::string& path, std::string_view bytes) {
   return write_through_temp(path, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); });
 }
 
+namespace {
+// A text file saved by some Windows editors starts with the UTF-8 byte order
+// mark EF BB BF (Unicode Standard, section 23.8); it is not part of the first
+// keyword.  The .msh and .vtk headers are text even in their binary variants;
+// .meshb is binary from its first byte and keeps its bytes.
+bool has_utf8_bom(std::string_view b) { return b.size() >= 3 && b.substr(0, 3) == "\xEF\xBB\xBF"; }
+}  // namespace
+
 Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   m = TetMesh{};
   const Format f = format_from_path(path);
@@ -181,6 +189,8 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
       struct stat fst {};
       if (::stat((base + ".face").c_str(), &fst) == 0)  // optional; anything but a file is an error
         if (s = read_file_bytes(base + ".face", face); !s) return s;
+      for (std::string* text : {&data, &ele, &face})
+        if (has_utf8_bom(*text)) text->erase(0, 3);
       s = parse_tetgen(data, ele, face, base, m);
       break;
     }
@@ -193,6 +203,7 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
         if (s = read_file_bytes(path, data); !s) return s;
         bytes = data;
       }
+      if (f != Format::MeditBinary && has_utf8_bom(bytes)) bytes.remove_prefix(3);
       if (f == Format::Medit) s = parse_medit(bytes, path, m, threads);
       else if (f == Format::MeditBinary) s = parse_meditb(bytes, path, m);
       else if (f == Format::Gmsh) s = parse_gmsh(bytes, path, m);

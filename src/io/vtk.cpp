@@ -22,6 +22,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cctype>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -166,10 +167,34 @@ bool all_integral(const Array& a) {
   return true;
 }
 
+const char* const kRefNames[] = {"ref", "medit:ref", "gmsh:physical", "CellEntityIds", "region", "MaterialIds"};
+
+/// A one-component cell array named as a ref (kRefNames) or gmsh:geometrical
+/// that holds a value no int32 ref can be (7.5, 1e10): an error naming the
+/// array, the cell and the value, rather than refs silently set to 0 in the
+/// output.
+Status check_ref_arrays(const std::vector<Array>& cell, const std::string& name) {
+  for (const Array& a : cell) {
+    if (a.components != 1) continue;
+    bool named = a.name == "gmsh:geometrical";
+    for (const char* want : kRefNames) named |= a.name == want;
+    if (!named) continue;
+    for (size_t c = 0; c < a.values.size(); ++c) {
+      const double v = a.values[c];
+      if (v == std::floor(v) && v >= INT32_MIN && v <= INT32_MAX) continue;
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.17g", v);
+      return Status::error(ErrorCode::InvalidMesh, name + ": cell array " + a.name + " holds " + buf + " at cell " +
+                                                       std::to_string(c) +
+                                                       "; refs are whole numbers that fit in 32 bits");
+    }
+  }
+  return Status::success();
+}
+
 /// The cell array used as region ref (see the file comment), or -1.
 int pick_ref_array(const std::vector<Array>& cell) {
-  static const char* kNames[] = {"ref", "medit:ref", "gmsh:physical", "CellEntityIds", "region", "MaterialIds"};
-  for (const char* want : kNames)
+  for (const char* want : kRefNames)
     for (size_t i = 0; i < cell.size(); ++i)
       if (cell[i].name == want && cell[i].components == 1 && all_integral(cell[i])) return static_cast<int>(i);
   for (size_t i = 0; i < cell.size(); ++i)
@@ -251,6 +276,7 @@ Status build_mesh(Grid& g, const std::string& name, TetMesh& m) {
       else if (kind[c] == 2 && edge_out) (*edge_out)[static_cast<size_t>(pos[c])] = r;
     }
   };
+  if (Status s = check_ref_arrays(g.cell_data, name); !s) return s;
   if (const int ri = pick_ref_array(g.cell_data); ri >= 0)
     scatter(g.cell_data[static_cast<size_t>(ri)], m.tet_ref, m.tri_ref, &m.edge_ref);
   for (const Array& a : g.cell_data)

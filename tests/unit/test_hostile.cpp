@@ -103,6 +103,37 @@ TEST_F(Hostile, TruncatedFilesEveryFormat) {
   }
 }
 
+// A text file that starts with a UTF-8 byte order mark (as some Windows
+// editors save it) reads as the same mesh; .meshb is binary and refuses it.
+TEST_F(Hostile, Utf8ByteOrderMarkIsSkippedInTextFormats) {
+  const TetMesh box = make_box_mesh({.nx = 2, .ny = 2, .nz = 1, .jitter = 0.2, .regions = 2});
+  const std::string bom = "\xEF\xBB\xBF";
+  for (const char* ext : {".mesh", ".msh", ".vtk", ".vtu", ".node", ".meshb"}) {
+    const std::string plain = (dir_ / (std::string("plain") + ext)).string();
+    ASSERT_TRUE(write_mesh(plain, box)) << ext;
+    TetMesh want, got;
+    ASSERT_TRUE(read_mesh(plain, want)) << ext;
+    const std::string marked = (dir_ / (std::string("marked") + ext)).string();
+    const bool tetgen = std::string(ext) == ".node";
+    for (const char* part : tetgen ? std::vector<const char*>{".node", ".ele", ".face"} : std::vector<const char*>{ext}) {
+      std::string bytes;
+      ASSERT_TRUE(read_file_bytes((dir_ / (std::string("plain") + part)).string(), bytes));
+      put(std::string("marked") + part, bom + bytes);
+    }
+    const Status s = read_mesh(marked, got);
+    if (std::string(ext) == ".meshb") {
+      EXPECT_FALSE(s.ok());
+      continue;
+    }
+    ASSERT_TRUE(s) << ext << ": " << s.message;
+    EXPECT_EQ(got.xyz, want.xyz) << ext;
+    EXPECT_EQ(got.tets, want.tets) << ext;
+    EXPECT_EQ(got.tet_ref, want.tet_ref) << ext;
+    EXPECT_EQ(got.tris, want.tris) << ext;
+    EXPECT_EQ(got.tri_ref, want.tri_ref) << ext;
+  }
+}
+
 TEST_F(Hostile, TruncatedTetGen) {
   const std::string node = "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n";  // says 4, gives 3
   put("t.node", node);

@@ -185,6 +185,17 @@ TEST(IoVtk, RefArrayChoice) {
   ASSERT_TRUE(parse_vtk(head + "SCALARS w float\nLOOKUP_TABLE default\n0.5\nSCALARS q int\nLOOKUP_TABLE default\n5\n",
                         "t.vtk", m));
   EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{5}));
+  // A ref array with a value no ref can be is an error, not refs of 0.
+  for (const char* bad : {"7.5", "1e10", "-3000000000"}) {
+    const Status s = parse_vtk(head + "SCALARS ref float 1\nLOOKUP_TABLE default\n" + bad + "\n", "t.vtk", m);
+    ASSERT_FALSE(s) << bad;
+    EXPECT_NE(s.message.find("cell array ref holds"), std::string::npos) << s.message;
+    EXPECT_NE(s.message.find("at cell 0"), std::string::npos) << s.message;
+  }
+  EXPECT_FALSE(parse_vtk(head + "SCALARS gmsh:geometrical double 1\nLOOKUP_TABLE default\n2.25\n", "t.vtk", m));
+  // A float ref array holding whole numbers is read.
+  ASSERT_TRUE(parse_vtk(head + "SCALARS MaterialIds double 1\nLOOKUP_TABLE default\n-4\n", "t.vtk", m));
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{-4}));
 }
 
 namespace {
