@@ -330,10 +330,15 @@ int worker(const Args& a, int rank) {
 // full statistics are computed once, at the end).
 // The alphas in parallel (rank 0 has every core while the others wait), the
 // sums in tet order: the same numbers for every thread count.
-QualityStats alpha_scan(const TetMesh& g, std::vector<double>& al) {
+// al[k] = alpha of tet k for k >= from (the tets before are known: the kept
+// tets, which merge_parts puts first and unchanged), then the statistics.
+QualityStats alpha_scan(const TetMesh& g, std::vector<double>& al, int32_t from = 0) {
   QualityStats q;
   al.resize(static_cast<size_t>(g.nt()));
-  tetopt::detail::parallel_for_each(g.nt(), kRank0Threads, [&](int64_t k) { al[k] = tet_alpha(g, static_cast<int32_t>(k)); });
+  tetopt::detail::parallel_for_each(g.nt() - from, kRank0Threads, [&](int64_t j) {
+    const int32_t k = from + static_cast<int32_t>(j);
+    al[k] = tet_alpha(g, k);
+  });
   double sum = 0, worst = std::numeric_limits<double>::infinity();
   for (int32_t k = 0; k < g.nt(); ++k) {
     const double x = al[k];
@@ -552,12 +557,16 @@ int leader(const Args& a, int size) {
     for (double x : L.improve_per_rank) L.improve_sum += x;
     // ---- merge
     t = now();
+    // The kept tets' alpha, in the order merge_parts puts them first.
+    int32_t nkept = 0;
+    for (int32_t k = 0; k < g.nt(); ++k)
+      if (part[k] == size) al[static_cast<size_t>(nkept++)] = al[k];
     s = merge_parts(g, part, plans, results, kRank0Threads);
     L.t_merge = now() - t;
     if (!s) { failure = s.message; exit_code = kExitInvariant; break; }
     t = now();
     std::vector<int32_t>().swap(part);
-    L.after = alpha_scan(g, al);
+    L.after = alpha_scan(g, al, nkept);
     L.t_stats = now() - t;
     L.t_total = now() - r0;
     say("round %d (threshold %.2f, %lld tets active): worst alpha %.4f -> %.4f, %lld tets below 0.3; "
