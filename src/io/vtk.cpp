@@ -139,8 +139,12 @@ double binary_value(const char* p, const NumType& t, bool big) {
   if (!t.integer) return t.bytes == 4 ? static_cast<double>(gvscan::load<float>(p, big)) : gvscan::load<double>(p, big);
   switch (t.bytes) {
     case 1: return t.is_signed ? static_cast<double>(static_cast<int8_t>(*p)) : static_cast<double>(static_cast<uint8_t>(*p));
-    case 2: return t.is_signed ? gvscan::load<int16_t>(p, big) : gvscan::load<uint16_t>(p, big);
-    case 4: return t.is_signed ? gvscan::load<int32_t>(p, big) : gvscan::load<uint32_t>(p, big);
+    // Each branch converted on its own: `c ? int32_t : uint32_t` has type
+    // uint32_t, which read a binary Int32 ref of -1 as 4294967295.
+    case 2: return t.is_signed ? static_cast<double>(gvscan::load<int16_t>(p, big))
+                               : static_cast<double>(gvscan::load<uint16_t>(p, big));
+    case 4: return t.is_signed ? static_cast<double>(gvscan::load<int32_t>(p, big))
+                               : static_cast<double>(gvscan::load<uint32_t>(p, big));
     default:
       return t.is_signed ? static_cast<double>(gvscan::load<int64_t>(p, big))
                          : static_cast<double>(gvscan::load<uint64_t>(p, big));

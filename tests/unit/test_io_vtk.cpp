@@ -30,8 +30,12 @@ namespace {
 TetMesh sample_mesh() {
   TetMesh m = make_box_mesh({.nx = 3, .ny = 2, .nz = 2, .jitter = 0.3, .seed = 7, .regions = 2});
   for (size_t i = 0; i < m.tri_ref.size(); ++i) m.tri_ref[i] = 100 + static_cast<int32_t>(i % 3);
+  // Negative refs and the int32 extremes (binary Int32 was once read unsigned).
+  m.tet_ref[0] = -1;
+  m.tet_ref[1] = INT32_MIN;
+  m.tri_ref[0] = INT32_MAX;
   m.edges = {0, 1, 1, 2, 4, 5};
-  m.edge_ref = {5, 5, 6};
+  m.edge_ref = {5, -7, 6};
   m.corners = {0, 3};
   m.xyz[0] = 0.1 + 1e-17;
   m.xyz[3] = std::nextafter(1.0, 2.0);  // vertex 1 is (1, 0, 0)
