@@ -570,8 +570,12 @@ void classify(TetMesh& m, int threads) {
   for (int32_t v : m.required_vertices) m.vert_constrained[v] = 1;
   for (int32_t v : m.corners) m.vert_constrained[v] = 1;
   for (int32_t v : m.edges) m.vert_constrained[v] = 1;
-  for (int32_t i : m.required_tris)
-    for (int k = 0; k < 3; ++k) m.vert_constrained[m.tris[3 * i + k]] = 1;
+  // Every listed triangle's vertices, also of a triangle that is no tet's
+  // face (a file may list a surface that does not conform to the tets): the
+  // triangle is written back, so its corners must not move; a flip never
+  // makes it a face (TopoEditor refuses a new face that is listed).  Listed
+  // triangles on tet faces were marked above.
+  for (int32_t v : m.tris) m.vert_constrained[v] = 1;
   detail::parallel_for_each(nt, threads, [&](int64_t t) {
     const int32_t* v = m.tet(static_cast<int32_t>(t));
     m.tet_kind[t] = static_cast<uint8_t>(m.vert_constrained[v[0]] + m.vert_constrained[v[1]] +

@@ -26,8 +26,9 @@
 // tet, between tets of different refs or of different Gmsh entities (when the
 // file has entity tags), or is listed among the file's triangles (every
 // listed triangle is kept, so its ref survives).  A vertex is
-// constrained when it lies on a constrained face, on a listed edge, or is
-// listed as required / corner.  Constrained vertices never move, bit for bit;
+// constrained when it lies on a constrained face, on a listed triangle (also
+// one that is no tet's face), on a listed edge, or is listed as required /
+// corner.  Constrained vertices never move, bit for bit;
 // constrained faces are never removed.
 //
 // Complexity: build_topology is O(nt + nv) time and memory apart from sorting

@@ -320,6 +320,43 @@ TEST_F(Hostile, UnreferencedVerticesSurviveImprove) {
   EXPECT_EQ(std::memcmp(cli.point(nv0), extra, sizeof extra), 0);
 }
 
+// A listed triangle whose corners are interior vertices and which is no
+// tet's face: its corners stay put (they moved once, and the triangle came
+// back elsewhere while the run said "boundary unchanged").
+TEST_F(Hostile, ListedTriangleThatIsNoFaceKeepsItsCorners) {
+  TetMesh m = make_box_mesh({.nx = 4, .ny = 4, .nz = 4, .jitter = 0.4, .seed = 2});
+  ASSERT_TRUE(build_topology(m));
+  // Three interior vertices no tet holds together.
+  std::vector<int32_t> interior;
+  for (int32_t v = 0; v < m.nv(); ++v)
+    if (!m.vert_constrained[v]) interior.push_back(v);
+  ASSERT_GE(interior.size(), 8u);
+  auto share_tet = [&](int32_t a, int32_t b) {
+    for (const int32_t* t = m.star_begin(a); t != m.star_end(a); ++t)
+      for (int k = 0; k < 4; ++k)
+        if (m.tet(*t)[k] == b) return true;
+    return false;
+  };
+  int32_t tri[3] = {interior.front(), -1, interior.back()};
+  for (int32_t v : interior)
+    if (v != tri[0] && v != tri[2] && !share_tet(v, tri[0]) && !share_tet(v, tri[2])) { tri[1] = v; break; }
+  ASSERT_GE(tri[1], 0);
+  ASSERT_FALSE(share_tet(tri[0], tri[2]));
+  m.tris.insert(m.tris.end(), tri, tri + 3);
+  m.tri_ref.push_back(77);
+  ASSERT_TRUE(build_topology(m));
+  for (int32_t v : tri) EXPECT_TRUE(m.vert_constrained[v]) << v;
+  const TetMesh before = m;
+  const InvariantSnapshot snap = capture_invariants(m);
+  ImproveReport rep;
+  ASSERT_TRUE(improve(m, ImproveOptions{}, rep));
+  EXPECT_GT(rep.after.alpha_worst, rep.before.alpha_worst);
+  for (int32_t v : tri) EXPECT_EQ(std::memcmp(m.point(v), before.point(v), 3 * sizeof(double)), 0) << v;
+  EXPECT_EQ(m.tris, before.tris);
+  EXPECT_EQ(m.tri_ref, before.tri_ref);
+  EXPECT_TRUE(check_invariants(m, snap));
+}
+
 TEST_F(Hostile, CoincidentDistinctVerticesKept) {
   // A box and a second box touching it along x = 2 with its own copies of the
   // shared vertices: coincident but distinct vertices, two components.
