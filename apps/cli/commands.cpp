@@ -98,12 +98,13 @@ int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::s
       }
     }
   }
+  // Every output can be written (its folder exists and is writable, and it
+  // is no folder, device or FIFO), so that no run does its work and then
+  // fails on its last output with the first ones written.
   for (size_t i = 1; i < files.size(); ++i) {
     if (files[i].second.empty()) continue;
-    struct stat st {};
-    const std::string dir = folder_of(files[i].second);
-    if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
-      std::fprintf(stderr, "tetopt: %s: no such folder (for %s)\n", files[i].second.c_str(), files[i].first.c_str());
+    if (const Status s = check_output_path(files[i].second); !s) {
+      std::fprintf(stderr, "tetopt: %s (for %s)\n", s.message.c_str(), files[i].first.c_str());
       return kExitOutput;
     }
   }

@@ -379,6 +379,17 @@ int leader(const Args& a, int size) {
   auto say = [&](const char* fmt, auto... xs) {
     if (!a.quiet) { std::printf(fmt, xs...); std::fflush(stdout); }
   };
+  // The outputs can be written (as in tetopt improve), checked before any work.
+  for (const std::string* out : {&a.out, &a.report}) {
+    if (out->empty()) continue;
+    if (const Status c = check_output_path(*out); !c) {
+      std::fprintf(stderr, "tetopt-mpi: %s\n", c.message.c_str());
+      stop_workers(size);
+      int rc = 0, all = 0;
+      MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
+      return kExitOutput;
+    }
+  }
   TetMesh g;
   OrientationReport orient;
   Status s = read_mesh(a.in, g, &orient, kRank0Threads);

@@ -88,4 +88,13 @@ Status read_file_bytes(const std::string& path, std::string& out);
 /// Writes bytes to path through a temporary file and rename.
 Status write_file_atomic(const std::string& path, std::string_view bytes);
 
+/// Whether path can take an output written through a temporary file and a
+/// rename, checked before any work (Io error naming the path if not): after
+/// following symbolic links, the target is a regular file or absent (a
+/// folder, device, FIFO or socket is refused: renaming over it would replace
+/// it), and its folder exists and is writable.  A TetGen output checks its
+/// .node, .ele and .face.  The writers follow the same links, so a link to a
+/// file keeps pointing at the rewritten file.
+Status check_output_path(const std::string& path);
+
 }  // namespace tetopt

@@ -106,14 +106,61 @@ bool write_all(int fd, std::string_view bytes) {
 
 Status write_failed() { return Status::error(ErrorCode::Io, "write failed (disk full?)"); }
 
+// The file a path names after following symbolic links (at most 40, as
+// Linux's own limit), or the path itself when it names no link.  A link that
+// points nowhere gives the path it points to, which a write creates.
+std::string follow_links(std::string path) {
+  for (int hop = 0; hop < 40; ++hop) {
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return path;
+    std::string to(static_cast<size_t>(st.st_size > 0 ? st.st_size : 4096) + 1, '\0');
+    const ssize_t n = ::readlink(path.c_str(), to.data(), to.size());
+    if (n <= 0) return path;
+    to.resize(static_cast<size_t>(n));
+    if (to[0] != '/') {
+      const size_t slash = path.rfind('/');
+      if (slash != std::string::npos) to = path.substr(0, slash + 1) + to;
+    }
+    path = to;
+  }
+  return path;
+}
+
+// check_output_path for one file, on the path with its links followed.
+Status check_one_output(const std::string& shown, const std::string& target) {
+  struct stat st {};
+  if (::stat(target.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown + ": is a folder, not a file");
+    if (!S_ISREG(st.st_mode))
+      return Status::error(ErrorCode::Io, shown + ": not a regular file (a device, FIFO or socket); tetopt writes "
+                                                  "a temporary file and renames it into place, which would replace it");
+  }
+  const size_t slash = target.rfind('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : target.substr(0, slash);
+  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    return Status::error(ErrorCode::Io, shown + ": no such folder '" + dir + "'");
+  // Creating a file there is the only sure test (access() says yes to root
+  // in a read-only or pseudo file system such as /sys).
+  const std::string probe = temp_name(target);
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) return Status::error(ErrorCode::Io, shown + ": cannot create files in folder '" + dir + "'");
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return Status::success();
+}
+
 // Writes `path` through a temporary file in the same folder, renamed into
 // place at the end: body(fd) writes the bytes and returns write_failed() or
 // a format error, and on any failure the temporary is removed, so a failed
-// run never leaves a file, whole or half.
+// run never leaves a file, whole or half.  A symbolic link is followed (the
+// file it names is replaced, the link stays), and a target that is not a
+// regular file is refused before anything is written.
 template <class Body>
 Status write_through_temp(const std::string& path, const Body& body) {
-  const std::string tmp = temp_name(path);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  const std::string target = follow_links(path);
+  if (Status s = check_one_output(path, target); !s) return s;
+  const std::string tmp = temp_name(target);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
   Status s = body(fd);
   if (::close(fd) != 0 && s) s = write_failed();
@@ -121,7 +168,7 @@ Status write_through_temp(const std::string& path, const Body& body) {
     std::remove(tmp.c_str());
     return Status::error(s.code, path + ": " + s.message);
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+  if (std::rename(tmp.c_str(), target.c_str()) != 0) {
     std::remove(tmp.c_str());
     return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
   }
@@ -159,6 +206,16 @@ Status write_medit_streamed(const std::string& path, const TetMesh& m, int threa
   });
 }
 }  // namespace
+
+Status check_output_path(const std::string& path) {
+  if (format_from_path(path) == Format::TetGen) {
+    const std::string base = stem(path);
+    for (const char* ext : {".node", ".ele", ".face"})
+      if (Status s = check_one_output(base + ext, follow_links(base + ext)); !s) return s;
+    return Status::success();
+  }
+  return check_one_output(path, follow_links(path));
+}
 
 Status write_file_atomic(const std::string& path, std::string_view bytes) {
   return write_through_temp(path, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); });

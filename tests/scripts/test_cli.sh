@@ -141,6 +141,27 @@ check "improve --html over IN: exit 1, IN intact, no output" '[ $rc -eq 1 ] && c
 check "improve --report over -o: exit 1, nothing written" '[ $rc -eq 1 ] && [ ! -e "$W/side.mesh" ]'
 "$T" improve "$W/keep.mesh" -o "$W/side.mesh" --field "$W/no/such/f.vtu" -q 2> "$W/side.err"; rc=$?
 check "improve --field into a missing folder: exit 4, no output written" '[ $rc -eq 4 ] && [ ! -e "$W/side.mesh" ] && grep -q "no such folder" "$W/side.err"'
+# An output that is a folder, a FIFO or a link to a device is refused before
+# any work (renaming the temporary over it would replace it): exit 4, the
+# target as it was, no other output written.  A link to a regular file is
+# followed: the file is rewritten and the link stays a link.
+mkdir -p "$W/adir.html"
+"$T" improve "$W/keep.mesh" -o "$W/side.mesh" --report "$W/side.json" --html "$W/adir.html" -q 2> "$W/side.err"; rc=$?
+check "improve --html naming a folder: exit 4 before any output" \
+  '[ $rc -eq 4 ] && [ -d "$W/adir.html" ] && [ ! -e "$W/side.mesh" ] && [ ! -e "$W/side.json" ] && grep -q "is a folder" "$W/side.err"'
+ln -sf /dev/null "$W/null.json"
+"$T" improve "$W/keep.mesh" -o "$W/side.mesh" --report "$W/null.json" -q 2> "$W/side.err"; rc=$?
+check "improve --report through a link to /dev/null: exit 4, link and device intact" \
+  '[ $rc -eq 4 ] && [ -L "$W/null.json" ] && [ -c /dev/null ] && [ ! -e "$W/side.mesh" ] && grep -q "not a regular file" "$W/side.err"'
+if mkfifo "$W/outfifo.mesh" 2> /dev/null; then
+  "$T" convert "$W/keep.mesh" "$W/outfifo.mesh" 2> /dev/null; rc=$?
+  check "convert into a FIFO: exit 4, the FIFO kept" '[ $rc -eq 4 ] && [ -p "$W/outfifo.mesh" ]'
+fi
+echo old > "$W/real_out.mesh"
+ln -sf real_out.mesh "$W/link_out.mesh"
+"$T" improve "$W/keep.mesh" -o "$W/link_out.mesh" -q; rc=$?
+check "improve -o through a link to a file: the file rewritten, the link kept" \
+  '[ $rc -eq 0 ] && [ -L "$W/link_out.mesh" ] && head -1 "$W/real_out.mesh" | grep -q MeshVersionFormatted'
 # A FIFO as input is refused at once (opening it must not wait for a writer).
 if mkfifo "$W/fifo.mesh" 2> /dev/null; then
   timeout 20 "$T" quality "$W/fifo.mesh" 2> "$W/fifo.err"; rc=$?

@@ -67,6 +67,13 @@ check "--report without value: same message, exit 1" \
 $MPIRUN "$M" improve "$W/in.mesh" -o "$W/x.mesh" --no-such 2> "$W/em" > /dev/null < /dev/null; rm_=$?
 check "unknown option: same message, exit 1" \
   '[ $rt -eq 1 ] && [ $rm_ -eq 1 ] && [ "$(head -1 "$W/et" | cut -d: -f2-)" = "$(head -1 "$W/em" | cut -d: -f2-)" ]'
+# Outputs that cannot be written are refused before any work, as in tetopt
+# improve: exit 4, nothing written.
+mkdir -p "$W/adir.json"
+$MPIRUN "$M" improve "$W/in.mesh" -o "$W/y.mesh" --report "$W/adir.json" -q 2> "$W/em" > /dev/null < /dev/null; rm_=$?
+check "--report naming a folder: exit 4, no output written" '[ $rm_ -eq 4 ] && [ ! -e "$W/y.mesh" ] && grep -q "is a folder" "$W/em"'
+$MPIRUN "$M" improve "$W/in.mesh" -o "$W/no/such/y.mesh" -q 2> "$W/em" > /dev/null < /dev/null; rm_=$?
+check "-o into a missing folder: exit 4" '[ $rm_ -eq 4 ] && grep -q "no such folder" "$W/em"'
 # tetopt-mpi's own options are its own.
 "$T" improve "$W/in.mesh" -o "$W/x.mesh" --rounds 2 2> "$W/et" > /dev/null; rt=$?
 check "tetopt improve rejects --rounds (tetopt-mpi only)" '[ $rt -eq 1 ] && grep -q "unknown option" "$W/et"'
