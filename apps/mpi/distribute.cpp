@@ -29,13 +29,11 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
   for (int32_t t = 0; t < ntg; ++t)
     if (all || (*opt.active)[t]) tet_of.push_back(t);
   const int32_t nt = static_cast<int32_t>(tet_of.size());
-  if (opt.parts <= 1) {
+  // One part, or too few tets to give every part one: part 0 takes them all
+  // and the other parts are empty (their ranks return at once).
+  if (opt.parts <= 1 || nt < opt.parts) {
     for (int32_t t : tet_of) part[t] = 0;
     return part;
-  }
-  if (nt < opt.parts) {
-    err = "fewer tets (" + std::to_string(nt) + ") than parts (" + std::to_string(opt.parts) + ")";
-    return {};
   }
   // The dual graph of the active tets: one graph vertex per tet, one edge per
   // interior face.  Above opt.contract_above active tets it is contracted
@@ -85,9 +83,9 @@ std::vector<int32_t> partition_tets(const TetMesh& g, const PartitionOptions& op
   for (size_t k = 0; k < gid.size(); ++k)
     if (gid[k] == 0) { gid[k] = static_cast<int32_t>(group_key.size()); group_key.push_back(static_cast<int32_t>(k)); }
   const auto ng = static_cast<int32_t>(group_key.size());
-  if (ng < opt.parts) {
-    err = "fewer tet groups (" + std::to_string(ng) + ") than parts (" + std::to_string(opt.parts) + ")";
-    return {};
+  if (ng < opt.parts) {  // as above
+    for (int32_t t : tet_of) part[t] = 0;
+    return part;
   }
   // The tets of group i: those of vertex v's star whose key is v, or the tet.
   auto for_members = [&](int32_t i, const auto& fn) {
@@ -300,6 +298,9 @@ Status decode_part(const std::string& msg, TetMesh& m) {
   m.vert_ref.assign(static_cast<size_t>(m.nv()), 0);
   m.tri_ref.assign(m.tris.size() / 3, 0);
   m.edge_ref.assign(m.edges.size() / 2, 0);
+  // An empty part (METIS may leave one empty on a small mesh, and a mesh with
+  // fewer tets than ranks has some): nothing to improve.
+  if (m.tets.empty() && m.xyz.empty()) return Status::success();
   if (Status s = check_arrays(m, "part"); !s) return s;
   // A part's tets come in the global mesh's order, which may follow no
   // spatial order at all; ordering them along a Morton curve lets improve()

@@ -191,7 +191,7 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
     opt.keep_vertex_ids = true;
     st = decode_part(framed.substr(sizeof gamma), part);
   }
-  if (st) st = improve(part, opt, rep);
+  if (st && part.nt() > 0) st = improve(part, opt, rep);  // an empty part has nothing to do
   // improve() is called once.  (It used to be called up to twice more in a
   // part with a cut, while a call still changed 0.2% of the tets: best mode
   // then stopped after two rounds without gain of the worst alpha, which in

@@ -137,6 +137,16 @@ echo "note single-process reference (median over 5 tet orders): two regions $a_s
 run "two regions, -np 2" 2 "$W/a.mesh" "$W/a2.mesh" "$a_single" --report "$W/a2.json"
 run "two regions, -np 4" 4 "$W/a.mesh" "$W/a4.mesh" "$a_single" --per-rank "$W/parts"
 run "box, -np 4, .vtu output" 4 "$W/b.mesh" "$W/b4.vtu" "$b_single"
+# A mesh too small to give every rank a part (48 tets; METIS leaves parts
+# empty): the empty ranks return at once (this was exit 2, "the mesh has no
+# tetrahedra"), as are the extra ranks of a 6-tet cube at 4 ranks.
+"$T" generate "$W/tiny.mesh" --cells 2 2 2 --jitter 0.45 --seed 7 > /dev/null || { echo "FAIL generate"; exit 1; }
+"$T" improve "$W/tiny.mesh" -o "$W/tiny_single.mesh" -q || { echo "FAIL single-process improve"; exit 1; }
+run "48 tets, -np 2" 2 "$W/tiny.mesh" "$W/tiny2.mesh" "$W/tiny_single.mesh"
+run "48 tets, -np 4" 4 "$W/tiny.mesh" "$W/tiny4.mesh" "$W/tiny_single.mesh"
+"$T" generate "$W/cube.mesh" --cells 1 1 1 --jitter 0.3 > /dev/null || { echo "FAIL generate"; exit 1; }
+$MPIRUN -np 4 "$M" improve "$W/cube.mesh" -o "$W/cube4.mesh" -q; rc=$?
+check "6 tets on 4 ranks: exit 0, valid" '[ $rc -eq 0 ] && same_boundary "$W/cube.mesh" "$W/cube4.mesh" && [ "$(nonpos "$W/cube4.mesh")" = 0 ]'
 # The contracted dual graph (normally only above 250,000 active tets) on a
 # small mesh, every round: same promise, same 5% rule.
 run "two regions, -np 2, contracted graph" 2 "$W/a.mesh" "$W/a2c.mesh" "$a_single" --contract-above 0 --report "$W/a2c.json"
