@@ -349,6 +349,8 @@ class GmshReader {
       for (int64_t i = 0; i < cnt[d]; ++i) {
         int64_t tag = 0, nphys = 0;
         if (Status s = int_val(tag, "an entity tag"); !s) return s;
+        if (tag < INT32_MIN || tag > INT32_MAX)
+          return fail(ErrorCode::Parse, "entity tag " + std::to_string(tag) + " does not fit in 32 bits");
         const int nbox = d == 0 ? 3 : 6;
         for (int k = 0; k < nbox; ++k) {
           if (binary_) {
@@ -365,6 +367,9 @@ class GmshReader {
         for (int64_t k = 0; k < nphys; ++k) {
           int64_t p = 0;
           if (Status s = int_val(p, "a physical tag"); !s) return s;
+          // A physical tag becomes a ref (int32); 2^31 wrapped to -2^31 once.
+          if (p < INT32_MIN || p > INT32_MAX)
+            return fail(ErrorCode::Parse, "physical tag " + std::to_string(p) + " does not fit in 32 bits");
           if (k == 0) entity_phys_[{d, static_cast<int>(tag)}] = static_cast<int32_t>(p);
         }
         if (d > 0) {

@@ -173,16 +173,21 @@ bool all_integral(const Array& a) {
 
 const char* const kRefNames[] = {"ref", "medit:ref", "gmsh:physical", "CellEntityIds", "region", "MaterialIds"};
 
+/// Whether a cell array's name makes it a ref (kRefNames) or gmsh:geometrical.
+bool is_ref_name(const std::string& n) {
+  if (n == "gmsh:geometrical") return true;
+  for (const char* want : kRefNames)
+    if (n == want) return true;
+  return false;
+}
+
 /// A one-component cell array named as a ref (kRefNames) or gmsh:geometrical
 /// that holds a value no int32 ref can be (7.5, 1e10): an error naming the
 /// array, the cell and the value, rather than refs silently set to 0 in the
 /// output.
 Status check_ref_arrays(const std::vector<Array>& cell, const std::string& name) {
   for (const Array& a : cell) {
-    if (a.components != 1) continue;
-    bool named = a.name == "gmsh:geometrical";
-    for (const char* want : kRefNames) named |= a.name == want;
-    if (!named) continue;
+    if (a.components != 1 || !is_ref_name(a.name)) continue;
     for (size_t c = 0; c < a.values.size(); ++c) {
       const double v = a.values[c];
       if (v == std::floor(v) && v >= INT32_MIN && v <= INT32_MAX) continue;
@@ -545,7 +550,13 @@ class LegacyReader {
       a.components = static_cast<int>(comps);
       a.integer = t.integer;
       if (Status s = values(comps * tuples, t, a.values, "field array " + a.name); !s) return s;
-      // Field arrays of a data section with one tuple per entity are kept.
+      // Field arrays of a data section with one tuple per entity are kept;
+      // others are field data of some other kind and are skipped, unless a
+      // cell array is named as a ref: skipping that one would write every
+      // ref back as 0.
+      if (target && tuples != target_n && target == &g_.cell_data && a.components == 1 && is_ref_name(a.name))
+        return fail(ErrorCode::Parse, "cell field array " + a.name + " has " + std::to_string(tuples) + " values for " +
+                                          std::to_string(target_n) + " cells");
       if (target && tuples == target_n) target->push_back(std::move(a));
       if (upper(c_.peek()) == "METADATA") {
         c_.token();

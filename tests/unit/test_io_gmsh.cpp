@@ -217,6 +217,23 @@ TEST(IoGmsh, Msh41EntityPhysicalTagsAndParametricNodes) {
   EXPECT_EQ(m.tet_entity, (std::vector<int32_t>{5, 6}));
   ASSERT_EQ(m.physical_names.size(), 1u);
   EXPECT_EQ(m.physical_names[0].name, "solid body");
+  // An entity's physical or own tag beyond 32 bits is refused (a physical tag
+  // of 2^31 once became every tet's ref -2^31).
+  struct Bad {
+    std::string from, to, line;
+  };
+  for (const auto& [from, to, line] : std::vector<Bad>{
+           {"5 0 0 0 1 1 1 1 33 0", "5 0 0 0 1 1 1 1 2147483648 0", "t.msh:10:"},
+           {"5 0 0 0 1 1 1 1 33 0", "5 0 0 0 1 1 1 1 -2147483649 0", "t.msh:10:"},
+           {"6 0 0 0 1 1 1 0 0", "4294967302 0 0 0 1 1 1 0 0", "t.msh:11:"}}) {
+    std::string bad = text;
+    bad.replace(bad.find(from), from.size(), to);
+    TetMesh b;
+    const Status e = parse(bad, b);
+    ASSERT_FALSE(e) << to;
+    EXPECT_NE(e.message.find("does not fit in 32 bits"), std::string::npos) << e.message;
+    EXPECT_EQ(e.message.rfind(line, 0), 0u) << e.message;
+  }
 }
 
 // ------------------------------------------------------------ hostile input

@@ -197,6 +197,15 @@ TEST(IoVtk, RefArrayChoice) {
     EXPECT_NE(s.message.find("at cell 0"), std::string::npos) << s.message;
   }
   EXPECT_FALSE(parse_vtk(head + "SCALARS gmsh:geometrical double 1\nLOOKUP_TABLE default\n2.25\n", "t.vtk", m));
+  // A FIELD ref array of the wrong length is an error too; another FIELD
+  // array of another length is field data and is skipped.
+  {
+    const Status s = parse_vtk(head + "FIELD FieldData 1\nref 1 2 int\n3 4\n", "t.vtk", m);
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.message.find("cell field array ref has 2 values for 1 cells"), std::string::npos) << s.message;
+  }
+  ASSERT_TRUE(parse_vtk(head + "FIELD FieldData 2\nTimeValue 1 2 double\n0.5 1\nref 1 1 int\n9\n", "t.vtk", m));
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{9}));
   // A float ref array holding whole numbers is read.
   ASSERT_TRUE(parse_vtk(head + "SCALARS MaterialIds double 1\nLOOKUP_TABLE default\n-4\n", "t.vtk", m));
   EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{-4}));
