@@ -156,10 +156,35 @@ Status check_measurable(const TetMesh& m, const std::string& name, int threads) 
     const double* p = m.point(static_cast<int32_t>(v));
     return !(std::fabs(p[0]) <= kMaxCoord) || !(std::fabs(p[1]) <= kMaxCoord) || !(std::fabs(p[2]) <= kMaxCoord);
   });
-  if (bad == nv) return Status::success();
-  return Status::error(ErrorCode::InvalidMesh, (name.empty() ? "" : name + ": ") + "vertex " + std::to_string(bad + 1) +
-                                                   " has a coordinate beyond 1e60 in magnitude, where the quality "
-                                                   "measures overflow (rescale the mesh)");
+  if (bad != nv)
+    return Status::error(ErrorCode::InvalidMesh, (name.empty() ? "" : name + ": ") + "vertex " + std::to_string(bad + 1) +
+                                                     " has a coordinate beyond 1e60 in magnitude, where the quality "
+                                                     "measures overflow (rescale the mesh)");
+  // The same powers underflow for tiny tets: a mesh scaled by 1e-90 measured
+  // every tet flat (alpha 0) in silence, and by 1e-80 alpha was already off
+  // in the fifth digit.  A tet whose longest edge is below 1e-60 (but not 0:
+  // four coincident vertices are simply flat) cannot exist beside
+  // coordinates of ordinary size (doubles keep 16 digits), so it means a
+  // mesh in the wrong units.
+  // (Measured by the largest coordinate difference, which does not
+  // underflow as a squared length would.)
+  constexpr double kMinEdge = 1e-60;
+  const int64_t nt = m.nt();
+  const int64_t tiny = first_index(nt, threads, [&](int64_t t) {
+    const int32_t* v = m.tet(static_cast<int32_t>(t));
+    double len = 0;
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        const double* p = m.point(v[a]);
+        const double* q = m.point(v[b]);
+        for (int k = 0; k < 3; ++k) len = std::max(len, std::fabs(p[k] - q[k]));
+      }
+    return len > 0 && len < kMinEdge;
+  });
+  if (tiny == nt) return Status::success();
+  return Status::error(ErrorCode::InvalidMesh, (name.empty() ? "" : name + ": ") + "tet " + std::to_string(tiny + 1) +
+                                                   " spans less than 1e-60 along every axis, where the quality measures "
+                                                   "underflow (rescale the mesh)");
 }
 
 Status compact_vertices(TetMesh& m, const std::vector<int32_t>& drop, std::vector<int32_t>* map) {

@@ -167,6 +167,21 @@ TEST(Mesh, CheckArraysRejectsBadInput) {
   for (int32_t t = 0; t < 2; ++t) EXPECT_EQ(tet_alpha(big, t), tet_alpha(unit, t));
   big.xyz[0] = 1e60;
   EXPECT_TRUE(check_measurable(big).ok());
+  // Tiny tets underflow instead: a mesh scaled to about 1e-50 is measured
+  // as at scale 1, one scaled to 1e-80 or 1e-300 is refused, naming a tet.
+  TetMesh small = m, tiny = m, tinier = m;
+  for (double& x : small.xyz) x *= 0x1p-166;
+  EXPECT_TRUE(check_measurable(small).ok());
+  for (int32_t t = 0; t < 2; ++t) EXPECT_EQ(tet_alpha(small, t), tet_alpha(unit, t));
+  for (double& x : tiny.xyz) x *= 1e-80;
+  EXPECT_NE(check_measurable(tiny, "f").message.find("f: tet 1 spans less than 1e-60"), std::string::npos);
+  for (double& x : tinier.xyz) x *= 1e-300;
+  EXPECT_FALSE(check_measurable(tinier).ok());
+  // A tet whose four vertices coincide is flat, not unmeasurable.
+  TetMesh same = m;
+  for (int k = 1; k < 4; ++k)
+    std::copy(same.point(same.tet(0)[0]), same.point(same.tet(0)[0]) + 3, same.point(same.tet(0)[k]));
+  EXPECT_TRUE(check_measurable(same).ok());
 }
 
 TEST(Mesh, ValidateCatchesBrokenAdjacencyAndInversion) {
