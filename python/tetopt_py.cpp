@@ -555,7 +555,7 @@ py::tuple improve_mesh(const py::dict& d, const PyImproveOptions& popt, const py
 // ---------------------------------------------------------------- quality
 
 py::tuple quality_mesh(const py::dict& d, bool diagnose, double threshold) {
-  if (diagnose && !(threshold > 0 && threshold <= 1))
+  if (!(threshold > 0 && threshold <= 1))  // checked as the CLI's --threshold, used or not
     throw py::value_error("threshold: must be in (0, 1], got " + py::repr(py::float_(threshold)).cast<std::string>());
   TetMesh m = mesh_from_dict(d);
   prepare(m);

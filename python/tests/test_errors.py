@@ -139,6 +139,14 @@ def test_bad_options_raise_value_error(kwargs, match):
         tetopt.improve(P, T, **kwargs)
 
 
+@pytest.mark.parametrize("diagnose", [False, True])
+@pytest.mark.parametrize("threshold", [0.0, -5.0, float("nan"), 1.5])
+def test_quality_threshold_checked_with_or_without_diagnosis(diagnose, threshold):
+    # As tetopt quality --threshold: refused whether or not it is used.
+    with pytest.raises(ValueError, match=r"threshold: must be in \(0, 1\]"):
+        tetopt.quality(P, T, diagnose=diagnose, threshold=threshold)
+
+
 def test_exception_in_log_callback_propagates():
     def log(level, msg):
         raise KeyError("from the callback")

@@ -177,7 +177,7 @@ def _with_diagnosis(js: str, dj: Optional[str]) -> Dict[str, Any]:
     if ops.get("untangled", 0) or ops.get("still_inverted", 0):
         # What `tetopt improve` prints as its "untangling:" line.
         warnings.warn(f"untangling: {ops.get('untangled', 0)} inverted or flat input tets made positive, "
-                      f"{ops.get('still_inverted', 0)} could not be (all their vertices are constrained)",
+                      f"{ops.get('still_inverted', 0)} could not be (log=print lists their ids)",
                       RuntimeWarning, stacklevel=3)
     return report
 
