@@ -58,6 +58,7 @@ static const char* kImproveHelp =
     "                       of alpha and dihedral angles, statistics, time per phase,\n"
     "                       operation counts, diagnosis, the boundary verdict\n"
     "  --msh-version V      22 or 41 for .msh output    --binary  binary .msh/.vtk\n"
+    "  --meshb-version V    2, 3 (default) or 4 for .meshb output\n"
     "  --allow-insert       (mode best) may insert new free vertices inside the\n"
     "                       volume; existing vertices keep their ids.  Off by default\n"
     "                       because some users need the vertex set unchanged\n"

@@ -119,6 +119,10 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
       if (!integer(n)) return R::Error;
       if (n != 22 && n != 41) return bad("--msh-version is 22 or 41");
       a.wo.msh_version = static_cast<int>(n);
+    } else if (o == "--meshb-version") {
+      if (!integer(n)) return R::Error;
+      if (n < 2 || n > 4) return bad("--meshb-version is 2, 3 or 4");
+      a.wo.meditb_version = static_cast<int>(n);
     } else if (!o.empty() && o[0] == '-') {
       const ExtraOption* x = nullptr;
       for (const ExtraOption& e : extra)

@@ -83,6 +83,7 @@ const char* kHelp =
     "  --allow-remove       (mode best) may remove free vertices (dropped after the merge)\n"
     "  --report FILE.json   per-round phase times, bytes, quality; before/after stats\n"
     "  --msh-version V      22 or 41    --binary  binary .msh/.vtk\n"
+    "  --meshb-version V    2, 3 (default) or 4 for .meshb output\n"
     "  --no-check           skip the per-part proof inside improve (the final global\n"
     "                       proof always runs)\n"
     "  -q, --quiet          print nothing but errors    -v, --verbose  per-rank detail\n"

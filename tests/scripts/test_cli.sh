@@ -37,6 +37,12 @@ check "generate writes a mesh" '[ -s "$W/box.mesh" ]'
 check "improve exits 0" '[ $rc -eq 0 ]'
 "$T" improve "$W/box.mesh" -o "$W/b.mesh" -q
 check "same input and seed give byte-identical output" 'cmp -s "$W/a.mesh" "$W/b.mesh"'
+# --meshb-version as in convert: the GMF version word of the .meshb written.
+"$T" improve "$W/box.mesh" -o "$W/v4.meshb" --meshb-version 4 -q; rc=$?
+check "improve --meshb-version 4 writes a version-4 .meshb" \
+  '[ $rc -eq 0 ] && [ "$(od -A n -t d4 -j 4 -N 4 "$W/v4.meshb" | tr -d " ")" = 4 ]'
+"$T" improve "$W/box.mesh" -o "$W/v5.meshb" --meshb-version 5 -q 2> /dev/null; rc=$?
+check "improve --meshb-version 5 exits 1" '[ $rc -eq 1 ] && [ ! -e "$W/v5.meshb" ]'
 # convert --threads: the parallel reader and writer give the serial bytes
 # (83k tets: sections larger than the reader's 1 MiB chunks).
 "$T" generate "$W/big.mesh" --cells 24 24 24 --jitter 0.3 --seed 3
