@@ -182,7 +182,8 @@ class GmshReader {
   Status count_val(int64_t& v, const char* what) {
     if (!binary_) {
       if (Status s = int_tok(v, what); !s) return s;
-      if (v < 0) return fail(ErrorCode::Parse, std::string("negative ") + what + " " + std::to_string(v));
+      // `what` has its article ("the minimum element tag"): "... is negative".
+      if (v < 0) return fail(ErrorCode::Parse, std::string(what) + " is negative (" + std::to_string(v) + ")");
       return Status::success();
     }
     if (!need(static_cast<size_t>(dsize_))) return fail_bin(std::string("truncated data while reading ") + what);

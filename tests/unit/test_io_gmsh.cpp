@@ -281,6 +281,9 @@ TEST(IoGmshHostile, AbsurdCountsAllocateNothing) {
   expect_error(kHead + "$Nodes\n900000000000\n1 0 0 0\n$EndNodes\n", ErrorCode::Parse, 5, "exceeds");
   expect_error(kHead + kNodes + "$Elements\n99999999999\n$EndElements\n", ErrorCode::Parse, 12, "exceeds");
   expect_error(kHead + "$Nodes\n-3\n$EndNodes\n", ErrorCode::Parse, 5, "negative");
+  // A 4.1 block's negative minimum tag, named with its article in place.
+  expect_error("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 4 -5 4\n", ErrorCode::Parse, 5,
+               "the minimum node tag is negative (-5)");
   // binary 4.1 header with a huge size_t count
   std::string b = "$MeshFormat\n4.1 1 8\n";
   gvscan::store<int32_t>(b, 1, false);
