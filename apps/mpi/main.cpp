@@ -380,30 +380,25 @@ int leader(const Args& a, int size) {
   auto say = [&](const char* fmt, auto... xs) {
     if (!a.quiet) { std::printf(fmt, xs...); std::fflush(stdout); }
   };
+  // Before any work: the workers are told to stop and join the final reduce.
+  auto give_up = [&](const std::string& message, int code) {
+    std::fprintf(stderr, "tetopt-mpi: %s\n", message.c_str());
+    stop_workers(size);
+    int rc = 0, all = 0;
+    MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
+    return code;
+  };
   // The outputs can be written (as in tetopt improve), checked before any work.
-  for (const std::string* out : {&a.out, &a.report}) {
-    if (out->empty()) continue;
-    if (const Status c = check_output_path(*out); !c) {
-      std::fprintf(stderr, "tetopt-mpi: %s\n", c.message.c_str());
-      stop_workers(size);
-      int rc = 0, all = 0;
-      MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
-      return kExitOutput;
-    }
-  }
+  for (const std::string* out : {&a.out, &a.report})
+    if (const Status c = out->empty() ? Status::success() : check_output_path(*out); !c)
+      return give_up(c.message, kExitOutput);
   TetMesh g;
   OrientationReport orient;
   Status s = read_mesh(a.in, g, &orient, kRank0Threads);
   if (s) s = check_measurable(g, "", kRank0Threads);
   if (s) s = build_topology(g, kRank0Threads);
   if (s) s = orient_consistently(g, false, &orient, kRank0Threads);
-  if (!s) {
-    std::fprintf(stderr, "tetopt-mpi: %s: %s\n", a.in.c_str(), s.message.c_str());
-    stop_workers(size);
-    int rc = 0, all = 0;
-    MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
-    return kExitInput;
-  }
+  if (!s) return give_up(a.in + ": " + s.message, kExitInput);
   const double t_read = now() - t_start;
   const InvariantSnapshot snap = capture_invariants(g, kRank0Threads);
   std::vector<uint8_t> used_in(static_cast<size_t>(g.nv()), 0);  // vertices a tet of IN uses

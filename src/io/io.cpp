@@ -127,7 +127,9 @@ std::string follow_links(std::string path) {
 }
 
 // check_output_path for one file, on the path with its links followed.
-Status check_one_output(const std::string& shown, const std::string& target) {
+// probe: also create (and remove) a file in its folder; a writer skips that,
+// since creating its temporary file is the same test.
+Status check_one_output(const std::string& shown, const std::string& target, bool probe = true) {
   struct stat st {};
   if (::stat(target.c_str(), &st) == 0) {
     if (S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown + ": is a folder, not a file");
@@ -139,13 +141,14 @@ Status check_one_output(const std::string& shown, const std::string& target) {
   const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : target.substr(0, slash);
   if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
     return Status::error(ErrorCode::Io, shown + ": no such folder '" + dir + "'");
+  if (!probe) return Status::success();
   // Creating a file there is the only sure test (access() says yes to root
   // in a read-only or pseudo file system such as /sys).
-  const std::string probe = temp_name(target);
-  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  const std::string tmp = temp_name(target);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
   if (fd < 0) return Status::error(ErrorCode::Io, shown + ": cannot create files in folder '" + dir + "'");
   ::close(fd);
-  ::unlink(probe.c_str());
+  ::unlink(tmp.c_str());
   return Status::success();
 }
 
@@ -158,7 +161,7 @@ Status check_one_output(const std::string& shown, const std::string& target) {
 template <class Body>
 Status write_through_temp(const std::string& path, const Body& body) {
   const std::string target = follow_links(path);
-  if (Status s = check_one_output(path, target); !s) return s;
+  if (Status s = check_one_output(path, target, false); !s) return s;
   const std::string tmp = temp_name(target);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");

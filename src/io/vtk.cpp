@@ -165,11 +165,9 @@ bool is_id_numbering(const std::string& n) {
          n == "vtkGhostType" || n == "vtkOriginalPointIds" || n == "GlobalNodeIds" || n == "gmsh:geometrical";
 }
 
-bool all_integral(const Array& a) {
-  for (double v : a.values)
-    if (v != std::floor(v) || v < INT32_MIN || v > INT32_MAX) return false;
-  return true;
-}
+bool is_int32_value(double v) { return v == std::floor(v) && v >= INT32_MIN && v <= INT32_MAX; }
+
+bool all_integral(const Array& a) { return std::all_of(a.values.begin(), a.values.end(), is_int32_value); }
 
 const char* const kRefNames[] = {"ref", "medit:ref", "gmsh:physical", "CellEntityIds", "region", "MaterialIds"};
 
@@ -190,7 +188,7 @@ Status check_ref_arrays(const std::vector<Array>& cell, const std::string& name)
     if (a.components != 1 || !is_ref_name(a.name)) continue;
     for (size_t c = 0; c < a.values.size(); ++c) {
       const double v = a.values[c];
-      if (v == std::floor(v) && v >= INT32_MIN && v <= INT32_MAX) continue;
+      if (is_int32_value(v)) continue;
       char buf[32];
       std::snprintf(buf, sizeof buf, "%.17g", v);
       return Status::error(ErrorCode::InvalidMesh, name + ": cell array " + a.name + " holds " + buf + " at cell " +
