@@ -12,9 +12,13 @@
 //               vertices and everything constrained globally are required
 //   gather      the ranks send their improved parts back; rank 0 merges them
 //               into the global mesh and rebuilds its topology
+// A round after the first with at most --local-below active tets (the band
+// around the last cut and the poor tets) skips partition and messages: rank
+// 0 improves it alone with every core of its node.
 // Each round's threshold is max(G, min(0.6, worst alpha + 0.1 + 0.1 x rounds
-// in a row without gain)); rounds stop after --rounds, or after two rounds in
-// a row that did not raise the worst alpha by 0.001.  Then rank 0 proves the
+// in a row without gain)); rounds stop after --rounds, after two rounds in
+// a row that did not raise the worst alpha by 0.001, or after one such
+// round that was local.  Then rank 0 proves the
 // promise on the whole mesh (check_invariants against the snapshot of IN)
 // and writes OUT; nothing is written when the proof fails.
 #include <mpi.h>
@@ -90,13 +94,17 @@ const char* kHelp =
     "options of tetopt-mpi:\n"
     "  --rounds R           partition rounds (default 8; stops earlier after two\n"
     "                       rounds in a row that do not raise the worst alpha\n"
-    "                       by 0.001).\n"
+    "                       by 0.001, or one such round that was local).\n"
     "                       A round's threshold is max(G, min(0.6, worst + 0.1 +\n"
     "                       0.1 x rounds in a row without gain))\n"
     "  --contract-above N   give METIS the dual graph contracted by groups of tets\n"
     "                       with the same smallest vertex when a round has more\n"
     "                       than N active tets (default 250000; 0: always): about\n"
     "                       5x faster partitioning, a more ragged cut\n"
+    "  --local-below N      a round after the first with at most N active tets\n"
+    "                       (default 250000; 0: never) runs on rank 0 alone with\n"
+    "                       every core of its node: no cut, no partition, no\n"
+    "                       messages (the late rounds clean up a thin band)\n"
     "  --per-rank DIR       also write DIR/part_<rank>.vtu (a partition of the result,\n"
     "                       fields rank, region, alpha) and DIR/parts.pvtu\n";
 
@@ -106,6 +114,9 @@ struct Args : tetopt_cli::ImproveArgs {
   std::string per_rank;
   int rounds = 8;
   int64_t contract_above = tetopt_mpi::PartitionOptions{}.contract_above;
+  // A later round with at most this many active tets runs on rank 0 alone,
+  // with every core of its node (see the round loop).
+  int64_t local_below = 250000;
 };
 
 double now() {
@@ -129,6 +140,9 @@ int parse_args(int argc, char** argv, Args& a, std::string& err) {
        }},
       {{"--contract-above"}, true, [&](const std::string& s, std::string& e) {
          return tetopt_cli::parse_whole("--contract-above", s, 0, int64_t{1} << 53, a.contract_above, e);
+       }},
+      {{"--local-below"}, true, [&](const std::string& s, std::string& e) {
+         return tetopt_cli::parse_whole("--local-below", s, 0, int64_t{1} << 53, a.local_below, e);
        }},
   };
   switch (tetopt_cli::parse_improve_args(v, {"tetopt-mpi", "tetopt-mpi"}, extra, a, err)) {
@@ -248,6 +262,7 @@ struct RoundLog {
   int64_t pulled_tets = 0;                     ///< tets moved next to a worst tet after METIS
   bool graph_contracted = false;               ///< METIS got the contracted dual graph
   bool worst_frozen = false;                   ///< the worst tet touched this round's interface
+  bool local = false;                          ///< the round ran on rank 0 alone (--local-below)
   int64_t active_tets = 0;                     ///< tets sent out to be improved this round
   int64_t frozen_tets = 0, refrozen_tets = 0;  ///< tets touching the interface; of those, also the previous one
   int64_t insertions = 0, flips = 0, pair_flips = 0, smooth_moves = 0;
@@ -276,6 +291,7 @@ std::string round_json(const RoundLog& r) {
        ", \"improve_sum\": " + num(r.improve_sum) + "}";
   s += ", \"improve_seconds_per_rank\": " + arr(r.improve_per_rank);
   s += ", \"active_tets\": " + std::to_string(r.active_tets) + ", \"pulled_tets\": " + std::to_string(r.pulled_tets);
+  s += std::string(", \"local\": ") + (r.local ? "true" : "false");
   s += std::string(", \"graph_contracted\": ") + (r.graph_contracted ? "true" : "false");
   s += std::string(", \"worst_tet_at_interface\": ") + (r.worst_frozen ? "true" : "false");
   s += ", \"tets_per_rank\": " + arr(r.tets_per_rank);
@@ -455,32 +471,47 @@ int leader(const Args& a, int size) {
     } else {
       L.active_tets = g.nt();
     }
-    std::vector<uint8_t> avoid;
-    if (size > 1) avoid = avoid_flags(g, al, prev_shared, gamma, cur.alpha_worst);
-    PartitionOptions po;
-    po.parts = size;
-    po.seed = static_cast<int>(a.opt.seed % 1000003) + round;
-    po.threshold = gamma;
-    po.avoid = avoid.empty() ? nullptr : &avoid;
-    po.active = active.empty() ? nullptr : &active;
-    po.alpha = &al;
-    po.threads = kRank0Threads;
-    po.contract_above = a.contract_above;
-    std::string err;
-    std::vector<int32_t> part = partition_tets(g, po, err, &L.graph_contracted);
-    if (part.empty()) { failure = err; exit_code = kExitInput; break; }
-    if (size > 1) {
-      // METIS's cut may still pass next to a worst tet (the weights are a
-      // preference); the 32 worst tets below the threshold take their
-      // neighbourhoods into their own part.
-      std::vector<int32_t> seeds;
-      for (int32_t k = 0; k < g.nt(); ++k)
-        if (al[k] < gamma || al[k] == cur.alpha_worst) seeds.push_back(k);
-      const size_t n = std::min<size_t>(32, seeds.size());
-      std::partial_sort(seeds.begin(), seeds.begin() + static_cast<std::ptrdiff_t>(n), seeds.end(),
-                        [&](int32_t x, int32_t y) { return al[x] < al[y] || (al[x] == al[y] && x < y); });
-      seeds.resize(n);
-      L.pulled_tets = pull_in(g, part, size, seeds);
+    // A later round with few active tets (a thin band around the last cut
+    // and the poor tets) runs on rank 0 alone, with every core of its node:
+    // no partition, no messages, and no cut, so no tet is frozen but those
+    // next to the kept ones.  On flange_large at 2 ranks, rounds 3 to 5
+    // (17k-35k active tets) each cost 0.3-0.4 s of partition, extraction,
+    // messages and merge beside 0.1-0.3 s of improve, and each new cut froze
+    // tets that the next round had to free again.
+    L.local = size > 1 && round > 1 && L.active_tets <= a.local_below;
+    const int nparts = L.local ? 1 : size;
+    std::vector<int32_t> part;
+    if (L.local) {
+      part.resize(static_cast<size_t>(g.nt()));
+      tetopt::detail::parallel_for_each(g.nt(), kRank0Threads, [&](int64_t k) { part[k] = active[k] ? 0 : 1; });
+    } else {
+      std::vector<uint8_t> avoid;
+      if (size > 1) avoid = avoid_flags(g, al, prev_shared, gamma, cur.alpha_worst);
+      PartitionOptions po;
+      po.parts = size;
+      po.seed = static_cast<int>(a.opt.seed % 1000003) + round;
+      po.threshold = gamma;
+      po.avoid = avoid.empty() ? nullptr : &avoid;
+      po.active = active.empty() ? nullptr : &active;
+      po.alpha = &al;
+      po.threads = kRank0Threads;
+      po.contract_above = a.contract_above;
+      std::string err;
+      part = partition_tets(g, po, err, &L.graph_contracted);
+      if (part.empty()) { failure = err; exit_code = kExitInput; break; }
+      if (size > 1) {
+        // METIS's cut may still pass next to a worst tet (the weights are a
+        // preference); the 32 worst tets below the threshold take their
+        // neighbourhoods into their own part.
+        std::vector<int32_t> seeds;
+        for (int32_t k = 0; k < g.nt(); ++k)
+          if (al[k] < gamma || al[k] == cur.alpha_worst) seeds.push_back(k);
+        const size_t n = std::min<size_t>(32, seeds.size());
+        std::partial_sort(seeds.begin(), seeds.begin() + static_cast<std::ptrdiff_t>(n), seeds.end(),
+                          [&](int32_t x, int32_t y) { return al[x] < al[y] || (al[x] == al[y] && x < y); });
+        seeds.resize(n);
+        L.pulled_tets = pull_in(g, part, size, seeds);
+      }
     }
     L.t_partition = now() - r0;
     // ---- extract the parts (plus the kept group, not sent)
@@ -488,7 +519,7 @@ int leader(const Args& a, int size) {
     std::vector<PartPlan> plans;
     std::vector<std::string> msgs;
     std::vector<uint8_t> shared;
-    build_parts(g, part, size, plans, msgs, shared);
+    build_parts(g, part, nparts, plans, msgs, shared);
     L.t_extract = now() - t;
     L.frozen_tets = count_touching(g, shared, kRank0Threads);
     {  // is the worst tet touching this round's interface?
@@ -505,14 +536,14 @@ int leader(const Args& a, int size) {
       });
     }
     for (int p = 0; p < size; ++p) {
-      L.tets_per_rank.push_back(plans[p].tets);
-      L.interface_vertices_per_rank.push_back(plans[p].interface_vertices);
+      L.tets_per_rank.push_back(p < nparts ? plans[p].tets : 0);
+      L.interface_vertices_per_rank.push_back(p < nparts ? plans[p].interface_vertices : 0);
     }
     // ---- scatter
-    for (int p = 0; p < size; ++p)
+    for (int p = 0; p < nparts; ++p)
       msgs[p] = frame(gamma, std::move(msgs[p]));
     bool sent = true;
-    for (int p = 1; p < size && sent; ++p) {
+    for (int p = 1; p < nparts && sent; ++p) {
       L.bytes_scatter += static_cast<int64_t>(msgs[p].size());
       sent = send_bytes(msgs[p], p, kTagPart, &L.t_scatter);
     }
@@ -521,16 +552,18 @@ int leader(const Args& a, int size) {
     double own_secs = 0;
     Status own_st;
     TetMesh own;
-    std::string own_res = improve_part(msgs[0], a.opt, own, own_secs, own_st);
+    ImproveOptions own_opt = a.opt;
+    if (L.local) own_opt.threads = kRank0Threads;
+    std::string own_res = improve_part(msgs[0], own_opt, own, own_secs, own_st);
     own = TetMesh{};
     L.t_improve_own = own_secs;
     std::string().swap(msgs[0]);
     // ---- gather
-    std::vector<PartResult> results(static_cast<size_t>(size));
+    std::vector<PartResult> results(static_cast<size_t>(nparts));
     t = now();
     decode_result(own_res, results[0]);
     std::string().swap(own_res);
-    for (int got = 1; got < size; ++got) {
+    for (int got = 1; got < nparts; ++got) {
       MPI_Status st;
       probe_polite(MPI_ANY_SOURCE, st);
       const std::string b = recv_bytes(st, &L.t_gather_transfer);
@@ -567,7 +600,7 @@ int leader(const Args& a, int size) {
     // The kept tets' alpha, in the order merge_parts puts them first.
     int32_t nkept = 0;
     for (int32_t k = 0; k < g.nt(); ++k)
-      if (part[k] == size) al[static_cast<size_t>(nkept++)] = al[k];
+      if (part[k] == nparts) al[static_cast<size_t>(nkept++)] = al[k];
     s = merge_parts(g, part, plans, results, kRank0Threads);
     L.t_merge = now() - t;
     if (!s) { failure = s.message; exit_code = kExitInvariant; break; }
@@ -576,24 +609,35 @@ int leader(const Args& a, int size) {
     L.after = alpha_scan(g, al, nkept);
     L.t_stats = now() - t;
     L.t_total = now() - r0;
-    say("round %d (threshold %.2f, %lld tets active): worst alpha %.4f -> %.4f, %lld tets below 0.3; "
-        "partition %.3f s, extract %.3f s, scatter %.3f s (%.1f MB), improve %.3f s (max over ranks; min %.3f s), "
-        "gather wait %.3f s + transfer %.3f s (%.1f MB), merge %.3f s; %lld tets frozen at the interface, "
-        "%lld of them also frozen in the previous round%s\n",
-        round, gamma, static_cast<long long>(L.active_tets), cur.alpha_worst, L.after.alpha_worst,
-        static_cast<long long>(L.after.alpha_below_03), L.t_partition, L.t_extract, L.t_scatter,
-        L.bytes_scatter / 1e6, L.improve_max, L.improve_min, L.t_gather_wait, L.t_gather_transfer,
-        L.bytes_gather / 1e6, L.t_merge, static_cast<long long>(L.frozen_tets),
-        static_cast<long long>(L.refrozen_tets), L.worst_frozen ? "; the worst tet was at the interface" : "");
+    if (L.local)
+      say("round %d (threshold %.2f, %lld tets active, on rank 0 alone): worst alpha %.4f -> %.4f, "
+          "%lld tets below 0.3; select %.3f s, extract %.3f s, improve %.3f s, merge %.3f s\n",
+          round, gamma, static_cast<long long>(L.active_tets), cur.alpha_worst, L.after.alpha_worst,
+          static_cast<long long>(L.after.alpha_below_03), L.t_partition, L.t_extract, L.improve_max, L.t_merge);
+    else
+      say("round %d (threshold %.2f, %lld tets active): worst alpha %.4f -> %.4f, %lld tets below 0.3; "
+          "partition %.3f s, extract %.3f s, scatter %.3f s (%.1f MB), improve %.3f s (max over ranks; min %.3f s), "
+          "gather wait %.3f s + transfer %.3f s (%.1f MB), merge %.3f s; %lld tets frozen at the interface, "
+          "%lld of them also frozen in the previous round%s\n",
+          round, gamma, static_cast<long long>(L.active_tets), cur.alpha_worst, L.after.alpha_worst,
+          static_cast<long long>(L.after.alpha_below_03), L.t_partition, L.t_extract, L.t_scatter,
+          L.bytes_scatter / 1e6, L.improve_max, L.improve_min, L.t_gather_wait, L.t_gather_transfer,
+          L.bytes_gather / 1e6, L.t_merge, static_cast<long long>(L.frozen_tets),
+          static_cast<long long>(L.refrozen_tets), L.worst_frozen ? "; the worst tet was at the interface" : "");
     // A gain is a rise of the worst alpha by 0.001 or more: a tet locked near
     // alpha 0.0003 (aorta_vessel) otherwise "gains" 1e-5 a round while every
     // round re-improves most of the mesh.
     const bool gained = L.after.alpha_worst >= cur.alpha_worst + 1e-3;
     stale = gained ? 0 : stale + 1;
     cur = L.after;
+    const bool was_local = L.local;
     logs.push_back(std::move(L));
     prev_shared = std::move(shared);
-    if (stale >= 2) break;
+    // Two rounds in a row without gain end the run: the next cut frees other
+    // tets (one run of 28 gained after such a round).  A local round has no
+    // cut to move: after one without gain the run ends (22 runs on 11
+    // meshes at 2 and 4 ranks: none gained after a local round without gain).
+    if (stale >= 2 || (stale >= 1 && was_local)) break;
   }
   // ---- prove and write
   double t_check = 0, t_write = 0, t_parts = 0;

@@ -135,6 +135,12 @@ echo "note single-process reference (median over 5 tet orders): two regions $a_s
 "$T" improve "$W/b.mesh" -o "$W/b_single_rm.mesh" -q --allow-insert --allow-remove || { echo "FAIL single-process improve"; exit 1; }
 
 run "two regions, -np 2" 2 "$W/a.mesh" "$W/a2.mesh" "$a_single" --report "$W/a2.json"
+# Every round distributed (by default a round after the first with at most
+# 250,000 active tets runs on rank 0 alone, as every later round on these
+# small meshes does): the moving cut itself, held to the same rules.
+run "two regions, -np 2, every round distributed" 2 "$W/a.mesh" "$W/a2d.mesh" "$a_single" --local-below 0 --report "$W/a2d.json"
+run "two regions, -np 4, every round distributed" 4 "$W/a.mesh" "$W/a4d.mesh" "$a_single" --local-below 0
+run "box, -np 2, every round distributed" 2 "$W/b.mesh" "$W/b2d.mesh" "$b_single" --local-below 0
 run "two regions, -np 4" 4 "$W/a.mesh" "$W/a4.mesh" "$a_single" --per-rank "$W/parts"
 run "box, -np 4, .vtu output" 4 "$W/b.mesh" "$W/b4.vtu" "$b_single"
 # A mesh too small to give every rank a part (48 tets; METIS leaves parts
@@ -153,7 +159,7 @@ run "two regions, -np 2, contracted graph" 2 "$W/a.mesh" "$W/a2c.mesh" "$a_singl
 check "contracted graph: the report says so" '/usr/bin/python3 -c "
 import json, sys
 r = json.load(open(\"$W/a2c.json\"))
-sys.exit(0 if all(x[\"graph_contracted\"] for x in r[\"rounds\"]) else 1)"'
+sys.exit(0 if all(x[\"graph_contracted\"] for x in r[\"rounds\"] if not x[\"local\"]) else 1)"'
 check "dual graph below the threshold: the report says so" '/usr/bin/python3 -c "
 import json, sys
 r = json.load(open(\"$W/a2.json\"))
@@ -172,10 +178,21 @@ assert len(np.unique(t)) == len(m.points), (len(np.unique(t)), len(m.points))
 # The report says what happened: more than one round, bytes moved, parts of both ranks.
 check "report: rounds, bytes, two ranks with tets" '/usr/bin/python3 -c "
 import json, sys
-r = json.load(open(\"$W/a2.json\"))
-ok = r[\"ranks\"] == 2 and len(r[\"rounds\"]) >= 2 and r[\"bytes_scatter\"] > 0 and r[\"bytes_gather\"] > 0
+r = json.load(open(\"$W/a2d.json\"))
+ok = not any(x[\"local\"] for x in r[\"rounds\"])
+ok = ok and r[\"ranks\"] == 2 and len(r[\"rounds\"]) >= 2 and r[\"bytes_scatter\"] > 0 and r[\"bytes_gather\"] > 0
 ok = ok and all(min(x[\"tets_per_rank\"]) > 0 for x in r[\"rounds\"]) and r[\"invariants_ok\"]
 ok = ok and r[\"rounds\"][1][\"refrozen_tets\"] < r[\"rounds\"][1][\"frozen_tets\"]
+sys.exit(0 if ok else 1)"'
+# By default, round 1 is distributed and the later rounds (here all of them
+# small) run on rank 0 alone: no part for rank 1, no bytes sent, no cut.
+check "report: later rounds local" '/usr/bin/python3 -c "
+import json, sys
+r = json.load(open(\"$W/a2.json\")); R = r[\"rounds\"]
+ok = len(R) >= 2 and not R[0][\"local\"] and min(R[0][\"tets_per_rank\"]) > 0 and R[0][\"bytes_scatter\"] > 0
+for x in R[1:]:
+    ok = ok and x[\"local\"] and x[\"tets_per_rank\"][1] == 0 and x[\"tets_per_rank\"][0] == x[\"active_tets\"]
+    ok = ok and x[\"bytes_scatter\"] == 0 and x[\"frozen_tets\"] == 0
 sys.exit(0 if ok else 1)"'
 # Deterministic: the same run again gives the same bytes.
 $MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/a2b.mesh" -q
@@ -195,4 +212,6 @@ $MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/x.mesh" --rounds 0 2>/dev/null; rc
 check "--rounds 0: usage error (exit 1)" '[ $rc -eq 1 ] && [ ! -e "$W/x.mesh" ]'
 $MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/x.mesh" --contract-above -5 2>/dev/null; rc=$?
 check "--contract-above -5: usage error (exit 1)" '[ $rc -eq 1 ] && [ ! -e "$W/x.mesh" ]'
+$MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/x.mesh" --local-below x 2>/dev/null; rc=$?
+check "--local-below x: usage error (exit 1)" '[ $rc -eq 1 ] && [ ! -e "$W/x.mesh" ]'
 exit $fail
