@@ -646,8 +646,12 @@ uint64_t spread3(uint64_t x) {
 }
 }  // namespace
 
-void sort_tets_spatially(TetMesh& m, int threads) {
+void sort_tets_spatially(TetMesh& m, int threads, std::vector<int32_t>* order) {
   const int32_t nt = m.nt();
+  if (order) {
+    order->resize(static_cast<size_t>(nt));
+    for (int32_t t = 0; t < nt; ++t) (*order)[static_cast<size_t>(t)] = t;
+  }
   if (nt < 2) return;
   double lo[3] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                   std::numeric_limits<double>::infinity()};
@@ -674,6 +678,8 @@ void sort_tets_spatially(TetMesh& m, int threads) {
     key[static_cast<size_t>(t)] = {code, t};
   });
   std::sort(key.begin(), key.end());
+  if (order)
+    for (int32_t i = 0; i < nt; ++i) (*order)[static_cast<size_t>(i)] = key[static_cast<size_t>(i)].second;
   std::vector<int32_t> tets(m.tets.size()), ref(static_cast<size_t>(nt));
   const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
   std::vector<int32_t> ent(has_entity ? static_cast<size_t>(nt) : 0);
@@ -693,6 +699,42 @@ void sort_tets_spatially(TetMesh& m, int threads) {
   m.face_mask.clear();
   m.tet_kind.clear();
   m.topology_epoch++;
+}
+
+double tet_order_spread(const TetMesh& m, int threads) {
+  const int32_t nt = m.nt();
+  if (nt < 2) return 0;
+  struct Sums {
+    double step = 0, edge = 0;
+  };
+  auto centroid = [&](int32_t t, int d) {
+    const int32_t* v = m.tet(t);
+    return (m.point(v[0])[d] + m.point(v[1])[d] + m.point(v[2])[d] + m.point(v[3])[d]) / 4;
+  };
+  // Per-block sums joined in block order: the same value for every thread count.
+  const Sums s = detail::parallel_reduce_blocks(
+      nt - 1, threads, Sums{},
+      [&](int64_t b, int64_t e) {
+        Sums r;
+        for (auto t = static_cast<int32_t>(b); t < e; ++t) {
+          double st = 0, ed = 0;
+          for (int d = 0; d < 3; ++d) {
+            const double c = centroid(t + 1, d) - centroid(t, d);
+            const double x = m.point(m.tet(t)[1])[d] - m.point(m.tet(t)[0])[d];
+            st += c * c;
+            ed += x * x;
+          }
+          r.step += std::sqrt(st);
+          r.edge += std::sqrt(ed);
+        }
+        return r;
+      },
+      [](Sums a, const Sums& b) {
+        a.step += b.step;
+        a.edge += b.edge;
+        return a;
+      });
+  return s.edge > 0 ? s.step / s.edge : 0;
 }
 
 Status refresh_topology(TetMesh& m, int32_t first_new, int threads) {

@@ -28,7 +28,11 @@ int cmd_generate(const std::vector<std::string>& args);
 /// Reads IN, normalises orientation, builds topology; prints the error (one
 /// line) and returns false on failure.  Reports inverted/flat tets on stderr.
 /// threads: for building the topology (same result for every count).
-bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet, int threads = 1);
+/// order (improve only; nullptr: keep IN's order): where worth_sorting says
+/// so, the tets are put in Morton order before the topology is built, and
+/// order gets order[new id] = id in IN (left empty otherwise).
+bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet, int threads = 1,
+               std::vector<int32_t>* order = nullptr);
 
 /// Checks a command's files before any work: (what, path) pairs, the first
 /// one the input, the rest outputs (empty paths skipped).  Two of them

@@ -11,6 +11,7 @@
 
 #include "cli.hpp"
 #include "hugepages.hpp"
+#include "improve_args.hpp"
 #include "tetopt/diagnose.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/html_report.hpp"
@@ -111,7 +112,7 @@ int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::s
   return kExitOk;
 }
 
-bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
+bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std::vector<int32_t>* order) {
   const bool progress = !quiet && stderr_is_tty();
   if (progress) std::fprintf(stderr, "reading %s ...\r", path.c_str());
   OrientationReport orient;
@@ -129,8 +130,20 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads) {
   }
   if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
   s = check_measurable(m, "", threads);
+  const bool sort = s && order && tetopt_cli::worth_sorting(m, orient, threads);
+  if (sort) sort_tets_spatially(m, threads, order);
   if (s) s = build_topology(m, threads);
   if (s) s = orient_consistently(m, false, &orient, threads);
+  if (!s && sort) {
+    // A topology error names tets by their number in IN: read IN again and
+    // fail on its own order (only on this error path).
+    order->clear();
+    m = TetMesh{};
+    orient = OrientationReport{};
+    s = read_mesh(path, m, &orient, threads);
+    if (s) s = build_topology(m, threads);
+    if (s) s = orient_consistently(m, false, &orient, threads);
+  }
   if (progress) std::fputs("\033[K", stderr);
   if (!s) {
     std::fprintf(stderr, "tetopt: %s: %s\n", path.c_str(), s.message.c_str());

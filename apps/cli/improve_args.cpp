@@ -41,6 +41,11 @@ bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int6
   return true;
 }
 
+bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& orient, int threads) {
+  return m.nt() >= kSortMinTets && orient.inverted.empty() && orient.flat_tets.empty() &&
+         tetopt::tet_order_spread(m, threads) > kSortSpread;
+}
+
 ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,
                                      const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err) {
   using R = ImproveArgsResult;
@@ -81,6 +86,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "-v" || o == "--verbose") a.verbose = true;
     else if (o == "--binary") a.wo.binary = true;
     else if (o == "--no-check") a.opt.check_invariants = false;
+    else if (o == "--keep-order") a.keep_order = true;
     else if (o == "--allow-insert") a.opt.allow_insert = true;
     else if (o == "--allow-remove") a.opt.allow_remove = true;
     else if (o == "--mode") {

@@ -260,8 +260,10 @@ def improve(
         report: dict with the keys of ``tetopt improve --report`` JSON:
             tool, version, input, output, options, before, after (quality
             statistics as ``quality()``), operations, seconds,
-            boundary_unchanged, seconds_end_to_end (and diagnosis when
-            ``diagnose``).
+            boundary_unchanged, seconds_end_to_end, tets_reordered (always
+            False: the tets are improved in the order given, where ``tetopt
+            improve`` may first put a large mesh in Morton order) (and
+            diagnosis when ``diagnose``).
 
     Raises:
         ValueError: bad arguments or an invalid mesh (message names it).

@@ -597,4 +597,31 @@ TEST(Parallel, SortTetsSpatiallyIsAPermutationTowardsLocality) {
     ASSERT_TRUE(build_topology(m, threads));
     EXPECT_TRUE(validate(m, ValidateLevel::Full));
   }
+  // order[new] = old: a permutation that maps every sorted tet to its
+  // record in the input.
+  TetMesh m = sh;
+  std::vector<int32_t> order;
+  sort_tets_spatially(m, 2, &order);
+  ASSERT_EQ(order.size(), static_cast<size_t>(nt));
+  std::vector<int32_t> seen(order);
+  std::sort(seen.begin(), seen.end());
+  for (int32_t i = 0; i < nt; ++i) ASSERT_EQ(seen[i], i);
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t o = order[t];
+    EXPECT_TRUE(std::equal(m.tet(t), m.tet(t) + 4, sh.tet(o)) && m.tet_ref[t] == sh.tet_ref[o] &&
+                m.tet_entity[t] == sh.tet_entity[o])
+        << t;
+  }
+  EXPECT_EQ(m.tets, first);  // asking for the order does not change it
+  // tet_order_spread: about 1 in a spatial order, far above the CLI's
+  // threshold (tetopt_cli::kSortSpread = 8) when shuffled; the same value
+  // for every thread count.
+  const double in_order = tet_order_spread(base, 1), shuffled = tet_order_spread(sh, 1);
+  EXPECT_LT(in_order, 2.0);
+  EXPECT_GT(shuffled, 8.0);
+  EXPECT_LT(tet_order_spread(m, 1), 2.0);
+  for (int threads : {2, 3}) {
+    EXPECT_EQ(tet_order_spread(sh, threads), shuffled);
+    EXPECT_EQ(tet_order_spread(base, threads), in_order);
+  }
 }
