@@ -29,10 +29,11 @@ int cmd_generate(const std::vector<std::string>& args);
 /// line) and returns false on failure.  Reports inverted/flat tets on stderr.
 /// threads: for building the topology (same result for every count).
 /// order (improve only; nullptr: keep IN's order): where worth_sorting says
-/// so, the tets are put in Morton order before the topology is built, and
-/// order gets order[new id] = id in IN (left empty otherwise).
+/// so (with reorder_above), the tets are put in Morton order before the
+/// topology is built, and order gets order[new id] = id in IN (left empty
+/// otherwise).
 bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet, int threads = 1,
-               std::vector<int32_t>* order = nullptr);
+               std::vector<int32_t>* order = nullptr, int64_t reorder_above = -1);
 
 /// Checks a command's files before any work: (what, path) pairs, the first
 /// one the input, the rest outputs (empty paths skipped).  Two of them

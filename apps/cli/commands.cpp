@@ -112,7 +112,8 @@ int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::s
   return kExitOk;
 }
 
-bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std::vector<int32_t>* order) {
+bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std::vector<int32_t>* order,
+               int64_t reorder_above) {
   const bool progress = !quiet && stderr_is_tty();
   if (progress) std::fprintf(stderr, "reading %s ...\r", path.c_str());
   OrientationReport orient;
@@ -130,7 +131,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std
   }
   if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
   s = check_measurable(m, "", threads);
-  const bool sort = s && order && tetopt_cli::worth_sorting(m, orient, threads);
+  const bool sort = s && order && tetopt_cli::worth_sorting(m, orient, reorder_above, threads);
   if (sort) sort_tets_spatially(m, threads, order);
   if (s) s = build_topology(m, threads);
   if (s) s = orient_consistently(m, false, &orient, threads);

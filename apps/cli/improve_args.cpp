@@ -41,8 +41,9 @@ bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int6
   return true;
 }
 
-bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& orient, int threads) {
-  return m.nt() >= kSortMinTets && orient.inverted.empty() && orient.flat_tets.empty() &&
+bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& orient, int64_t reorder_above,
+                   int threads) {
+  return reorder_above >= 0 && m.nt() >= reorder_above && orient.inverted.empty() && orient.flat_tets.empty() &&
          tetopt::tet_order_spread(m, threads) > kSortSpread;
 }
 
@@ -86,7 +87,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "-v" || o == "--verbose") a.verbose = true;
     else if (o == "--binary") a.wo.binary = true;
     else if (o == "--no-check") a.opt.check_invariants = false;
-    else if (o == "--keep-order") a.keep_order = true;
+    else if (o == "--keep-order") a.reorder_above = -1;
     else if (o == "--allow-insert") a.opt.allow_insert = true;
     else if (o == "--allow-remove") a.opt.allow_remove = true;
     else if (o == "--mode") {
@@ -109,6 +110,10 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
       if (!number(d)) return R::Error;
       if (d <= 0 || d > 1) return bad("--threshold must be in (0, 1]");
       a.opt.threshold = d;
+    } else if (o == "--reorder-above") {
+      if (!integer(n)) return R::Error;
+      if (n < 0) return bad("--reorder-above must be a whole number from 0 on");
+      a.reorder_above = n;
     } else if (o == "--iterations") {
       if (!integer(n)) return R::Error;
       if (n < 0 || n > 1000000) return bad("--iterations must be in 0..1000000");

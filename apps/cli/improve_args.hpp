@@ -27,7 +27,8 @@ struct ImproveArgs {
   tetopt::ImproveOptions opt;
   tetopt::WriteOptions wo;
   bool quiet = false, verbose = false;
-  bool keep_order = false;  // --keep-order: never put the tets in Morton order first
+  // --reorder-above N (--keep-order: -1, never): see worth_sorting.
+  int64_t reorder_above = 1000000;
 };
 
 /// An option of one executable only.  apply gets the value ("" for a flag)
@@ -57,18 +58,22 @@ enum class ImproveArgsResult {
 bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int64_t hi, int64_t& out,
                  std::string& err);
 
-/// Whether `improve` (tetopt and tetopt-mpi, unless --keep-order) first puts
-/// the tets of m (read, not yet with topology) in Morton order: m has at
-/// least kSortMinTets tets, they follow no spatial order (tet_order_spread
-/// above kSortSpread), and none is inverted or flat (the untangling names
-/// input tets by their number in IN).  On the demo impeller (spread 25) and
-/// flange_large (44) this made the improve call 10-28% faster at 1 thread
-/// and 7-17% at 2; on meshes of 50k-170k tets (spread 14-38) it made no
-/// difference beyond the noise, and it changes the result (another order of
-/// the passes), so small meshes keep their order.
-inline constexpr int32_t kSortMinTets = 250000;
+/// Whether `improve` (tetopt and tetopt-mpi) first puts the tets of m (read,
+/// not yet with topology) in Morton order: reorder_above >= 0 (not
+/// --keep-order), m has at least reorder_above tets, they follow no spatial
+/// order (tet_order_spread above kSortSpread) and none is inverted or flat
+/// (the untangling names input tets by their number in IN).  Measured on
+/// this 2-core machine: flange_large (2.0M tets, spread 44) 11.3-11.9 s ->
+/// 9.6-9.8 s at 2 threads, worst alpha 0.1309 -> 0.1355.  The demo impeller
+/// (438k tets, spread 25): 10% faster at 1 thread but not at 2 (improve
+/// call 1.252 -> 1.278 s, medians of 12; its flip passes were slower,
+/// 0.81-0.91 -> 0.89-1.06 s: neighbouring work-list entries then conflict
+/// more often); meshes of 50k-170k tets: no difference beyond the noise.
+/// The result differs (another order of the passes), hence the default of
+/// 1,000,000 tets.
 inline constexpr double kSortSpread = 8.0;
-bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& orient, int threads);
+bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& orient, int64_t reorder_above,
+                   int threads);
 
 /// Parses args (the words after "improve").  Stops at the first error.
 ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,

@@ -88,8 +88,9 @@ const char* kHelp =
     "  --report FILE.json   per-round phase times, bytes, quality; before/after stats\n"
     "  --msh-version V      22 or 41    --binary  binary .msh/.vtk\n"
     "  --meshb-version V    2, 3 (default) or 4 for .meshb output\n"
-    "  --keep-order         keep IN's tet order on rank 0 (by default it is put in\n"
-    "                       Morton order of the tet centroids first)\n"
+    "  --reorder-above N    rank 0 puts a mesh of N tets or more (default 1000000)\n"
+    "                       whose tets follow no spatial order in Morton order first\n"
+    "  --keep-order         keep IN's tet order whatever its size\n"
     "  --no-check           skip the per-part proof inside improve (the final global\n"
     "                       proof always runs)\n"
     "  -q, --quiet          print nothing but errors    -v, --verbose  per-rank detail\n"
@@ -411,11 +412,11 @@ int leader(const Args& a, int size) {
     if (const Status c = out->empty() ? Status::success() : check_output_path(*out); !c)
       return give_up(c.message, kExitOutput);
   TetMesh g;
-  // As in tetopt improve (worth_sorting; not with --keep-order), the tets
-  // of a large mesh in no spatial order are put in Morton order of their
-  // centroids first: rank 0's passes over the whole mesh (dual graph,
-  // extraction, merge) then walk stars in cache.  flange_large comes in no spatial order, and at 2 ranks
-  // its round-1 partition took 0.85-1.00 s unsorted against 0.49-0.52 s
+  // As in tetopt improve (worth_sorting, --reorder-above, --keep-order),
+  // the tets of a large mesh in no spatial order are put in Morton order of
+  // their centroids first: rank 0's passes over the whole mesh (dual graph,
+  // extraction, merge) then walk stars in cache.  flange_large comes in no
+  // spatial order, and at 2 ranks its round-1 partition took 0.85-1.00 s unsorted against 0.49-0.52 s
   // sorted, extraction 0.26-0.33 s against 0.13-0.17 s, the whole run
   // 11.9-12.9 s against 10.0 s (two runs each).  The tet order of OUT was
   // never IN's (flips, and the parts merged in turn).  A topology error
@@ -426,7 +427,7 @@ int leader(const Args& a, int size) {
     sorted = false;
     Status st = read_mesh(a.in, g, &orient, kRank0Threads);
     if (st) st = check_measurable(g, "", kRank0Threads);
-    if (st && sort && tetopt_cli::worth_sorting(g, orient, kRank0Threads)) {
+    if (st && sort && tetopt_cli::worth_sorting(g, orient, a.reorder_above, kRank0Threads)) {
       sort_tets_spatially(g, kRank0Threads);
       sorted = true;
     }
@@ -435,7 +436,7 @@ int leader(const Args& a, int size) {
     return st;
   };
   bool sorted = false;
-  Status s = load(!a.keep_order, sorted);
+  Status s = load(true, sorted);
   if (!s && sorted) s = load(false, sorted);
   if (!s) return give_up(a.in + ": " + s.message, kExitInput);
   const double t_read = now() - t_start;

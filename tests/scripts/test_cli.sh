@@ -180,12 +180,14 @@ printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n4\n0 0 0 0\n1e70 0 0 0\n0
 check "coordinates of 1e70: quality exits 2 naming the vertex" '[ $rc -eq 2 ] && grep -q "huge.mesh: vertex 2 has a coordinate beyond 1e60" "$W/huge.err"'
 "$T" convert "$W/huge.mesh" "$W/huge.meshb" && "$T" convert "$W/huge.meshb" "$W/huge2.mesh"; rc=$?
 check "coordinates of 1e70: convert round-trips them" '[ $rc -eq 0 ] && grep -q "^1e+70 0 0" "$W/huge2.mesh"'
-# A large mesh whose tets follow no spatial order (a 257k-tet box with its
-# tets shuffled) is put in Morton order before improve: the report says so,
-# its input worst tet is still counted in IN's order, the result is the same
-# for 1 and 2 threads and keeps the boundary; --keep-order keeps IN's order
-# (and the in-order box is not reordered).
-"$T" generate "$W/big.mesh" --cells 35 35 35 --jitter 0.3 --seed 3 > /dev/null
+# A mesh of --reorder-above tets or more whose tets follow no spatial order
+# (a 94k-tet box with its tets shuffled; the default, 1,000,000 tets, would
+# make a slow test) is put in Morton order before improve: the report says
+# so, its input worst tet is still counted in IN's order, the result is the
+# same for 1 and 2 threads and keeps the boundary.  --keep-order keeps IN's
+# order, so does the default threshold here, and the in-order box is not
+# reordered.
+"$T" generate "$W/big.mesh" --cells 25 25 25 --jitter 0.3 --seed 3 > /dev/null
 /usr/bin/python3 - "$W/big.mesh" "$W/scattered.mesh" <<'PY'
 import random, sys
 lines = open(sys.argv[1]).read().split("\n")
@@ -197,16 +199,18 @@ open(sys.argv[2], "w").write("\n".join(lines))
 PY
 field() { /usr/bin/python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))" "$@"; }
 for t in 1 2; do
-  "$T" improve "$W/scattered.mesh" -o "$W/sc$t.mesh" --mode smooth --iterations 1 --threads $t --report "$W/sc$t.json" -q; rc=$?
-  check "scattered 257k tets, $t thread(s): exit 0" '[ $rc -eq 0 ]'
+  "$T" improve "$W/scattered.mesh" -o "$W/sc$t.mesh" --mode smooth --iterations 1 --threads $t --reorder-above 90000 --report "$W/sc$t.json" -q; rc=$?
+  check "scattered 94k tets, $t thread(s): exit 0" '[ $rc -eq 0 ]'
 done
 check "scattered mesh: reordered, same bytes for 1 and 2 threads" \
   '[ "$(field "$W/sc1.json" "d[\"tets_reordered\"]")" = True ] && cmp -s "$W/sc1.mesh" "$W/sc2.mesh"'
 wq=$("$T" quality "$W/scattered.mesh" --json | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["worst_tet"])')
 check "scattered mesh: the report's input worst tet is IN's ($wq)" '[ "$(field "$W/sc1.json" "d[\"before\"][\"worst_tet\"]")" = "$wq" ]'
-"$T" improve "$W/scattered.mesh" -o "$W/sck.mesh" --mode smooth --iterations 1 --keep-order --report "$W/sck.json" -q
+"$T" improve "$W/scattered.mesh" -o "$W/sck.mesh" --mode smooth --iterations 1 --reorder-above 90000 --keep-order --report "$W/sck.json" -q
 check "scattered mesh, --keep-order: not reordered" '[ "$(field "$W/sck.json" "d[\"tets_reordered\"]")" = False ]'
-"$T" improve "$W/big.mesh" -o "$W/bigo.mesh" --mode smooth --iterations 1 --report "$W/bigo.json" -q
+"$T" improve "$W/scattered.mesh" -o "$W/scd.mesh" --mode smooth --iterations 1 --report "$W/scd.json" -q
+check "scattered mesh below the default threshold: not reordered" '[ "$(field "$W/scd.json" "d[\"tets_reordered\"]")" = False ]'
+"$T" improve "$W/big.mesh" -o "$W/bigo.mesh" --mode smooth --iterations 1 --reorder-above 90000 --report "$W/bigo.json" -q
 check "the same box in order: not reordered" '[ "$(field "$W/bigo.json" "d[\"tets_reordered\"]")" = False ]'
 if [ -f "$MC" ] && /usr/bin/python3 -c "import meshio" 2>/dev/null; then
   /usr/bin/python3 "$MC" compare "$W/scattered.mesh" "$W/sc1.mesh" > "$W/mc_sc" 2>&1
