@@ -66,9 +66,11 @@ bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int6
 /// this 2-core machine: flange_large (2.0M tets, spread 44) 11.3-11.9 s ->
 /// 9.6-9.8 s at 2 threads, worst alpha 0.1309 -> 0.1355.  The demo impeller
 /// (438k tets, spread 25): 10% faster at 1 thread but not at 2 (improve
-/// call 1.252 -> 1.278 s, medians of 12; its flip passes were slower,
-/// 0.81-0.91 -> 0.89-1.06 s: neighbouring work-list entries then conflict
-/// more often); meshes of 50k-170k tets: no difference beyond the noise.
+/// call 1.252 -> 1.278 s, medians of 12; its topology passes were slower,
+/// 0.81-0.91 -> 0.89-1.06 s in three runs each; not analysed further: the
+/// parallel flip windows may meet more conflicts when neighbouring entries
+/// of the work list are neighbours in space); meshes of 50k-170k tets: no
+/// difference beyond the noise.
 /// The result differs (another order of the passes), hence the default of
 /// 1,000,000 tets.
 inline constexpr double kSortSpread = 8.0;
