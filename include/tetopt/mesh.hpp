@@ -66,6 +66,19 @@ struct TetMesh {
   std::vector<int32_t> corners;            ///< vertex ids
   std::vector<int32_t> ridges;             ///< indices into edges
   std::vector<PhysicalName> physical_names;
+  /// The physical tags of one Gmsh 4.1 $Entities entry, in the file's order
+  /// (possibly none).
+  struct GmshEntity {
+    int dim = 3;
+    int tag = 0;
+    std::vector<int32_t> physicals;
+  };
+  /// Gmsh 4.1 $Entities as read (empty for other files).  The 4.1 writer
+  /// gives an entity it writes with the same dimension and tag these
+  /// physical tags back when the ref it writes is theirs (the first of them,
+  /// or the entity tag itself when there are none), so an entity in two
+  /// physical groups, or in none, stays so; otherwise it lists the ref.
+  std::vector<GmshEntity> gmsh_entities;
   /// Gmsh elementary entity tags of tets / listed triangles (empty when the
   /// file has none); written back by the Gmsh writers.
   std::vector<int32_t> tet_entity, tri_entity;

@@ -365,6 +365,9 @@ class GmshReader {
         if (Status s = count_val(nphys, "a physical tag count"); !s) return s;
         if (nphys > static_cast<int64_t>(c_.remaining() / 2))
           return fail(ErrorCode::Parse, "absurd physical tag count " + std::to_string(nphys));
+        TetMesh::GmshEntity ge;
+        ge.dim = d;
+        ge.tag = static_cast<int>(tag);
         for (int64_t k = 0; k < nphys; ++k) {
           int64_t p = 0;
           if (Status s = int_val(p, "a physical tag"); !s) return s;
@@ -372,7 +375,9 @@ class GmshReader {
           if (p < INT32_MIN || p > INT32_MAX)
             return fail(ErrorCode::Parse, "physical tag " + std::to_string(p) + " does not fit in 32 bits");
           if (k == 0) entity_phys_[{d, static_cast<int>(tag)}] = static_cast<int32_t>(p);
+          ge.physicals.push_back(static_cast<int32_t>(p));
         }
+        m_.gmsh_entities.push_back(std::move(ge));
         if (d > 0) {
           int64_t nb = 0;
           if (Status s = count_val(nb, "a bounding entity count"); !s) return s;
@@ -591,7 +596,7 @@ struct Block {
 /// A geometric entity of the 4.1 $Entities section.
 struct Entity {
   int dim = 3, tag = 0;
-  int32_t phys = 0;
+  std::vector<int32_t> phys;  // physical tags written (usually one: the ref)
   double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   bool box_set = false;
 };
@@ -707,7 +712,7 @@ class GmshWriter {
       Entity e;
       e.dim = 0;
       e.tag = i + 1;
-      e.phys = 0;
+      e.phys = {0};
       grow(e, m_.corners[static_cast<size_t>(i)]);
       ents.push_back(e);
       blocks.push_back({0, 15, e.tag, i, 1});
@@ -749,8 +754,8 @@ class GmshWriter {
           for (int k = 0; k < 3; ++k) gvscan::store<double>(out_, e.lo[k], false);
           if (d > 0)
             for (int k = 0; k < 3; ++k) gvscan::store<double>(out_, e.hi[k], false);
-          gvscan::store<uint64_t>(out_, 1, false);
-          gvscan::store<int32_t>(out_, e.phys, false);
+          gvscan::store<uint64_t>(out_, e.phys.size(), false);
+          for (const int32_t p : e.phys) gvscan::store<int32_t>(out_, p, false);
           if (d > 0) gvscan::store<uint64_t>(out_, 0, false);
         } else {
           gvscan::put_int(out_, e.tag);
@@ -763,8 +768,12 @@ class GmshWriter {
               out_ += ' ';
               gvscan::put_double(out_, e.hi[k]);
             }
-          out_ += " 1 ";
-          gvscan::put_int(out_, e.phys);
+          out_ += ' ';
+          gvscan::put_int(out_, static_cast<int64_t>(e.phys.size()));
+          for (const int32_t p : e.phys) {
+            out_ += ' ';
+            gvscan::put_int(out_, p);
+          }
           out_ += d == 0 ? "\n" : " 0\n";
         }
       }
@@ -917,10 +926,26 @@ class GmshWriter {
     out_ += "$EndPhysicalNames\n";
   }
 
+  /// The physical tags of an entity written with (dim, tag) and ref r: those
+  /// of the same entity in the file read, when r is theirs (the first of
+  /// them, or the entity tag when it had none: the reader's refs), so an
+  /// entity in two physical groups, or in none, stays so; otherwise {r}.
+  std::vector<int32_t> physicals_of(int dim, int tag, int32_t r) {
+    if (read_ents_.empty() && !m_.gmsh_entities.empty())
+      for (const TetMesh::GmshEntity& g : m_.gmsh_entities) read_ents_.emplace(std::make_pair(g.dim, g.tag), &g.physicals);
+    if (const auto it = read_ents_.find({dim, tag}); it != read_ents_.end()) {
+      const std::vector<int32_t>& p = *it->second;
+      if (p.empty() ? r == tag : p[0] == r) return p;
+    }
+    return {r};
+  }
+  std::map<std::pair<int, int>, const std::vector<int32_t>*> read_ents_;
+
   /// Gives each element of one dimension an entity tag: its own entity tag
   /// when it has one (else its ref when positive), unless that tag already
   /// names an entity with a different ref, in which case a fresh tag is used.
-  /// Each entity carries its ref as its one physical tag.
+  /// Each entity carries its ref as its one physical tag, or the physical
+  /// tags the file gave it (physicals_of).
   template <class RefFn, class GrowFn>
   void assign(int dim, int type, int32_t n, RefFn ref_of, const std::vector<int32_t>* given, GrowFn grow_fn,
               std::vector<Entity>& ents, std::vector<Block>& blocks) {
@@ -951,7 +976,7 @@ class GmshWriter {
         Entity e;
         e.dim = dim;
         e.tag = tag;
-        e.phys = r;
+        e.phys = physicals_of(dim, tag, r);
         ents.push_back(e);
         ei = ents.size() - 1;
         key_to_ent[key] = ei;

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <string>
 #include <unistd.h>
@@ -234,6 +235,50 @@ TEST(IoGmsh, Msh41EntityPhysicalTagsAndParametricNodes) {
     EXPECT_NE(e.message.find("does not fit in 32 bits"), std::string::npos) << e.message;
     EXPECT_EQ(e.message.rfind(line, 0), 0u) << e.message;
   }
+}
+
+// A 4.1 entity in two physical groups, and one in none, stay so through a
+// read and a write (ASCII and binary): the writer listed only the ref, so
+// the second group lost its tets and the entity without a group got one.
+// An entity whose tets the writer gives another ref lists that ref.
+TEST(IoGmsh, Msh41EntityPhysicalListsSurviveARoundTrip) {
+  const std::string text =
+      "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+      "$Entities\n0 0 0 2\n5 0 0 0 1 1 1 2 33 44 0\n6 0 0 0 1 1 1 0 0\n$EndEntities\n"
+      "$Nodes\n1 5 1 5\n3 5 0 5\n1\n2\n3\n4\n5\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 1 1\n$EndNodes\n"
+      "$Elements\n2 2 1 2\n3 5 4 1\n1 1 2 3 4\n3 6 4 1\n2 2 3 4 5\n$EndElements\n";
+  TetMesh m;
+  Status s = parse(text, m);
+  ASSERT_TRUE(s) << s.message;
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{33, 6}));
+  ASSERT_EQ(m.gmsh_entities.size(), 2u);
+  EXPECT_EQ(m.gmsh_entities[0].physicals, (std::vector<int32_t>{33, 44}));
+  EXPECT_TRUE(m.gmsh_entities[1].physicals.empty());
+  for (bool binary : {false, true}) {
+    SCOPED_TRACE(binary ? "binary" : "ascii");
+    std::string out;
+    ASSERT_TRUE(format_gmsh(m, out, 41, binary));
+    if (!binary) {
+      EXPECT_NE(out.find("\n5 0 0 0 1 1 1 2 33 44 0\n"), std::string::npos) << out;
+      EXPECT_NE(out.find("\n6 0 0 0 1 1 1 0 0\n"), std::string::npos) << out;
+    }
+    TetMesh r;
+    s = parse(out, r);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(r.tet_ref, m.tet_ref);
+    EXPECT_EQ(r.tet_entity, m.tet_entity);
+    std::map<int, std::vector<int32_t>> vol;
+    for (const TetMesh::GmshEntity& e : r.gmsh_entities)
+      if (e.dim == 3) vol[e.tag] = e.physicals;
+    EXPECT_EQ(vol, (std::map<int, std::vector<int32_t>>{{5, {33, 44}}, {6, {}}}));
+  }
+  // The second tet moved to ref 7 (not entity 6's own tag): its entity lists 7.
+  m.tet_ref[1] = 7;
+  std::string out;
+  ASSERT_TRUE(format_gmsh(m, out, 41, false));
+  TetMesh r;
+  ASSERT_TRUE(parse(out, r));
+  EXPECT_EQ(r.tet_ref, (std::vector<int32_t>{33, 7}));
 }
 
 // ------------------------------------------------------------ hostile input
