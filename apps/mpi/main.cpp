@@ -416,9 +416,9 @@ int leader(const Args& a, int size) {
   // the tets of a large mesh in no spatial order are put in Morton order of
   // their centroids first: rank 0's passes over the whole mesh (dual graph,
   // extraction, merge) then walk stars in cache.  flange_large comes in no
-  // spatial order, and at 2 ranks its round-1 partition took 0.85-1.00 s unsorted against 0.49-0.52 s
-  // sorted, extraction 0.26-0.33 s against 0.13-0.17 s, the whole run
-  // 11.9-12.9 s against 10.0 s (two runs each).  The tet order of OUT was
+  // spatial order, and at 2 ranks its round-1 partition took 0.85-1.00 s
+  // unsorted against 0.49-0.52 s sorted, extraction 0.26-0.33 s against
+  // 0.13-0.17 s, the whole run 11.9-12.9 s against 10.0 s (two runs each).  The tet order of OUT was
   // never IN's (flips, and the parts merged in turn).  A topology error
   // names tets by their number in IN, so a failure after the sort is
   // reproduced on IN's order for its message.
