@@ -67,11 +67,13 @@ static const char* kImproveHelp =
     "                       star; the other vertices keep their order.  Off by default\n"
     "  --no-check           skip the final invariant proof (not recommended)\n"
     "  --reorder-above N    a mesh of N tets or more (default 1000000) whose tets\n"
-    "                       follow no spatial order is first put in Morton order of\n"
-    "                       their centroids: faster (the passes walk neighbours in\n"
-    "                       cache), a different, equally checked result; the report's\n"
-    "                       tets_reordered says so\n"
-    "  --keep-order         keep IN's tet order whatever its size\n"
+    "                       follow no spatial order (consecutive tets more than 8\n"
+    "                       edge lengths apart on average: a shuffled mesh of a\n"
+    "                       few thousand tets is not that far) is first put in\n"
+    "                       Morton order of their centroids: faster (the passes walk\n"
+    "                       neighbours in cache), a different, equally checked\n"
+    "                       result; the report's tets_reordered says so\n"
+    "  --keep-order         keep IN's tet order (wins over --reorder-above)\n"
     "  -q, --quiet          print nothing but errors    -v, --verbose  more detail\n"
     "\n"
     "After the run every tet still below the threshold is diagnosed: locked by its\n"
@@ -112,7 +114,7 @@ int cmd_improve(const std::vector<std::string>& args) {
   const auto t0 = std::chrono::steady_clock::now();
   TetMesh m;
   std::vector<int32_t> order;  // order[id] = id in IN, when the tets were put in Morton order
-  if (!load_mesh(in, m, quiet, opt.threads, &order, a.reorder_above)) return kExitInput;
+  if (!load_mesh(in, m, quiet, opt.threads, &order, a.keep_order ? -1 : a.reorder_above)) return kExitInput;
   if (verbose && !order.empty())
     std::fprintf(stderr, "tets put in Morton order of their centroids (IN's order is scattered; --keep-order keeps it)\n");
   // What improve's caches and passes add to the heap: 47-135 bytes per tet

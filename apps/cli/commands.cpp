@@ -153,10 +153,10 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std
   if (!quiet && orient.flipped)
     std::fprintf(stderr, "note: %s stores tets in the opposite orientation; normalised on read, "
                          "written back in its own convention\n", path.c_str());
-  if (!orient.inverted.empty())
+  if (!quiet && !orient.inverted.empty())
     std::fprintf(stderr, "warning: %s: %zu inverted tets (ids %s)\n", path.c_str(), orient.inverted.size(),
                  id_list(orient.inverted).c_str());
-  if (!orient.flat_tets.empty())
+  if (!quiet && !orient.flat_tets.empty())
     std::fprintf(stderr, "warning: %s: %zu flat (zero-volume) tets (ids %s)\n", path.c_str(),
                  orient.flat_tets.size(), id_list(orient.flat_tets).c_str());
   return true;

@@ -27,8 +27,9 @@ struct ImproveArgs {
   tetopt::ImproveOptions opt;
   tetopt::WriteOptions wo;
   bool quiet = false, verbose = false;
-  // --reorder-above N (--keep-order: -1, never): see worth_sorting.
+  // --reorder-above N; --keep-order wins over it (whatever the order given).
   int64_t reorder_above = 1000000;
+  bool keep_order = false;
 };
 
 /// An option of one executable only.  apply gets the value ("" for a flag)

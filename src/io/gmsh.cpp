@@ -188,7 +188,9 @@ class GmshReader {
     }
     if (!need(static_cast<size_t>(dsize_))) return fail_bin(std::string("truncated data while reading ") + what);
     v = size_val();
-    if (v < 0) return fail_bin(std::string("absurd ") + what);
+    // Unsigned in the file: past 2^63 it reads negative here.
+    if (v < 0)
+      return fail_bin(std::string(what) + " is absurd (" + std::to_string(static_cast<uint64_t>(v)) + ")");
     return Status::success();
   }
   Status int_val(int64_t& v, const char* what) {
@@ -976,7 +978,12 @@ class GmshWriter {
         Entity e;
         e.dim = dim;
         e.tag = tag;
-        e.phys = physicals_of(dim, tag, r);
+        // Only an element that carries this entity tag from the file (tets,
+        // listed triangles) is in the file's entity: a listed edge's entity
+        // tag is its ref, which may be another line entity's tag, whose list
+        // would drop the edge's group.
+        e.phys = have_given && (*given)[static_cast<size_t>(i)] == tag ? physicals_of(dim, tag, r)
+                                                                        : std::vector<int32_t>{r};
         ents.push_back(e);
         ei = ents.size() - 1;
         key_to_ent[key] = ei;

@@ -272,6 +272,28 @@ TEST(IoGmsh, Msh41EntityPhysicalListsSurviveARoundTrip) {
       if (e.dim == 3) vol[e.tag] = e.physicals;
     EXPECT_EQ(vol, (std::map<int, std::vector<int32_t>>{{5, {33, 44}}, {6, {}}}));
   }
+  // Listed edges carry no entity tag: an edge of line entity 1 (physical
+  // 5) is written in an entity tagged by its ref, 5, which must list 5, not
+  // the empty list of the file's line entity 5 (its group would be lost).
+  {
+    const std::string lines =
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+        "$Entities\n0 2 0 1\n1 0 0 0 1 0 0 1 5 0\n5 0 0 0 0 1 0 0 0\n1 0 0 0 1 1 1 1 9 0\n$EndEntities\n"
+        "$Nodes\n1 4 1 4\n3 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n$EndNodes\n"
+        "$Elements\n3 3 1 3\n1 1 1 1\n1 1 2\n1 5 1 1\n2 1 3\n3 1 4 1\n3 1 2 3 4\n$EndElements\n";
+    TetMesh e;
+    s = parse(lines, e);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(e.edge_ref, (std::vector<int32_t>{5, 5}));
+    std::string o;
+    ASSERT_TRUE(format_gmsh(e, o, 41, false));
+    TetMesh back;
+    ASSERT_TRUE(parse(o, back));
+    bool group5 = false;
+    for (const TetMesh::GmshEntity& g : back.gmsh_entities)
+      if (g.dim == 1 && std::find(g.physicals.begin(), g.physicals.end(), 5) != g.physicals.end()) group5 = true;
+    EXPECT_TRUE(group5) << o;
+  }
   // The second tet moved to ref 7 (not entity 6's own tag): its entity lists 7.
   m.tet_ref[1] = 7;
   std::string out;
