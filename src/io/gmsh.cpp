@@ -18,6 +18,7 @@
 // bytes that remain before anything is allocated.
 #include <algorithm>
 #include <map>
+#include <set>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -114,6 +115,8 @@ class GmshReader {
   std::vector<int32_t> dense_;  // tag -> vertex id + 1 (0: unknown)
   std::unordered_map<int64_t, int32_t> sparse_;
   std::map<std::pair<int, int>, int32_t> entity_phys_;  // (dim, tag) -> first physical tag
+  std::set<std::pair<int, int>> entities_;              // (dim, tag) listed in $Entities
+  bool have_entities_ = false;                          // a $Entities section was read
 
   Status fail(ErrorCode code, const std::string& what) const {
     return Status::error(code, name_ + ":" + std::to_string(c_.line) + ": " + what, c_.line);
@@ -339,6 +342,7 @@ class GmshReader {
   }
 
   Status read_entities() {
+    have_entities_ = true;
     start_binary();
     int64_t cnt[4];
     for (int d = 0; d < 4; ++d)
@@ -370,6 +374,7 @@ class GmshReader {
         TetMesh::GmshEntity ge;
         ge.dim = d;
         ge.tag = static_cast<int>(tag);
+        entities_.insert({d, static_cast<int>(tag)});
         for (int64_t k = 0; k < nphys; ++k) {
           int64_t p = 0;
           if (Status s = int_val(p, "a physical tag"); !s) return s;
@@ -561,6 +566,13 @@ class GmshReader {
       if (k == 0) return unsupported_type(type);
       if (cnt > n - seen)
         return fail(ErrorCode::Parse, "element blocks hold more elements than the declared " + std::to_string(n));
+      // An element block in an entity that $Entities does not list: Gmsh
+      // refuses the file ("Unknown entity"); its physical groups are unknown.
+      if (have_entities_ && (dim < 0 || dim > 3 || etag < INT32_MIN || etag > INT32_MAX ||
+                             !entities_.count({static_cast<int>(dim), static_cast<int>(etag)})))
+        return fail(ErrorCode::Parse, "element block " + std::to_string(b + 1) + " is in entity " +
+                                          std::to_string(etag) + " of dimension " + std::to_string(dim) +
+                                          ", which $Entities does not list");
       int64_t ref = etag;
       if (const auto it = entity_phys_.find({static_cast<int>(dim), static_cast<int>(etag)}); it != entity_phys_.end())
         ref = it->second;

@@ -205,14 +205,14 @@ names = re.findall(r\"Source=\\\"([^\\\"]+)\\\"\", pv)
 n = sum(len(meshio.read(\"$W/parts/\" + s).cells_dict[\"tetra\"]) for s in names)
 out = meshio.read(\"$W/a4.mesh\").cells_dict[\"tetra\"]
 sys.exit(0 if len(names) == 4 and n == len(out) else 1)"'
-# A scattered mesh (a 48k-tet box, tets shuffled) reordered on rank 0
+# A scattered mesh (a 24k-tet box, tets shuffled) reordered on rank 0
 # (--reorder-above 1000): the report says so and names the input's worst tet
 # by its number in IN, as tetopt quality does; the same checks as above
 # against the single process reordered the same way.
-"$T" generate "$W/c.mesh" --cells 20 20 20 --jitter 0.3 --seed 4 > /dev/null || { echo "FAIL generate"; exit 1; }
+"$T" generate "$W/c.mesh" --cells 20 20 10 --jitter 0.3 --seed 4 > /dev/null || { echo "FAIL generate"; exit 1; }
 shuffle_tets "$W/c.mesh" "$W/csh.mesh" 6
 "$T" improve "$W/csh.mesh" -o "$W/csh_single.mesh" -q --reorder-above 1000 || { echo "FAIL single-process improve"; exit 1; }
-run "scattered 48k tets, -np 2, reordered" 2 "$W/csh.mesh" "$W/csh2.mesh" "$W/csh_single.mesh" --reorder-above 1000 --report "$W/csh2.json"
+run "scattered 24k tets, -np 2, reordered" 2 "$W/csh.mesh" "$W/csh2.mesh" "$W/csh_single.mesh" --reorder-above 1000 --report "$W/csh2.json"
 wq=$("$T" quality "$W/csh.mesh" --json | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["worst_tet"])')
 check "reordered on rank 0: tets_reordered, input worst tet $wq in IN's numbering" '/usr/bin/python3 -c "
 import json, sys

@@ -294,6 +294,24 @@ TEST(IoGmsh, Msh41EntityPhysicalListsSurviveARoundTrip) {
       if (g.dim == 1 && std::find(g.physicals.begin(), g.physicals.end(), 5) != g.physicals.end()) group5 = true;
     EXPECT_TRUE(group5) << o;
   }
+  // An element block in an entity that $Entities does not list: refused
+  // (Gmsh refuses it too), naming the line; without $Entities it is read.
+  {
+    std::string bad = text;
+    bad.replace(bad.find("3 6 4 1\n"), 8, "3 7 4 1\n");
+    TetMesh b;
+    const Status e = parse(bad, b);
+    ASSERT_FALSE(e);
+    EXPECT_NE(e.message.find("t.msh:27: element block 2 is in entity 7 of dimension 3, which $Entities does not list"),
+              std::string::npos)
+        << e.message;
+    std::string none = bad;
+    none.erase(none.find("$Entities"), none.find("$Nodes") - none.find("$Entities"));
+    TetMesh c;
+    const Status ok = parse(none, c);
+    ASSERT_TRUE(ok) << ok.message;
+    EXPECT_EQ(c.tet_ref, (std::vector<int32_t>{5, 7}));
+  }
   // The second tet moved to ref 7 (not entity 6's own tag): its entity lists 7.
   m.tet_ref[1] = 7;
   std::string out;
