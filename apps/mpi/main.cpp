@@ -428,19 +428,21 @@ int leader(const Args& a, int size) {
     sorted = false;
     order.clear();
     Status st = read_mesh(a.in, g, &orient, kRank0Threads);
-    if (st) st = check_measurable(g, "", kRank0Threads);
+    if (!st) return st;  // the reader's messages name the file already
+    st = check_measurable(g, "", kRank0Threads);
     if (st && sort && tetopt_cli::worth_sorting(g, orient, a.keep_order ? -1 : a.reorder_above, kRank0Threads)) {
       sort_tets_spatially(g, kRank0Threads, &order);
       sorted = true;
     }
     if (st) st = build_topology(g, kRank0Threads);
     if (st) st = orient_consistently(g, false, &orient, kRank0Threads);
+    if (!st) st.message = a.in + ": " + st.message;
     return st;
   };
   bool sorted = false;
   Status s = load(true, sorted);
   if (!s && sorted) s = load(false, sorted);
-  if (!s) return give_up(a.in + ": " + s.message, kExitInput);
+  if (!s) return give_up(s.message, kExitInput);
   if (a.verbose && sorted)
     std::fprintf(stderr, "tets put in Morton order of their centroids (IN's order is scattered; --keep-order keeps it)\n");
   const double t_read = now() - t_start;

@@ -225,8 +225,9 @@ r = json.load(open(\"$W/csh2k.json\"))
 sys.exit(0 if r[\"tets_reordered\"] is False and r[\"before\"][\"worst_tet\"] == $wq else 1)"'
 
 # Errors: unreadable input -> 2, bad option -> 1, nothing written.
-$MPIRUN -np 2 "$M" improve "$W/missing.mesh" -o "$W/x.mesh" -q 2>/dev/null; rc=$?
-check "missing input: exit 2, nothing written" '[ $rc -eq 2 ] && [ ! -e "$W/x.mesh" ]'
+$MPIRUN -np 2 "$M" improve "$W/missing.mesh" -o "$W/x.mesh" -q 2> "$W/miss.err"; rc=$?
+check "missing input: exit 2, nothing written, the path named once (as tetopt does)" \
+  '[ $rc -eq 2 ] && [ ! -e "$W/x.mesh" ] && [ "$(head -1 "$W/miss.err")" = "tetopt-mpi: $W/missing.mesh: no such file" ]'
 $MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/x.mesh" --rounds 0 2>/dev/null; rc=$?
 check "--rounds 0: usage error (exit 1)" '[ $rc -eq 1 ] && [ ! -e "$W/x.mesh" ]'
 $MPIRUN -np 2 "$M" improve "$W/a.mesh" -o "$W/x.mesh" --contract-above -5 2>/dev/null; rc=$?
