@@ -80,6 +80,7 @@ class Driver {
     to.quality_threshold = gamma;
     to.passes = 3;
     to.threads = threads_;
+    to.rebuild_stars = false;
     TopoStats st = remove_all_boundary_tets(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
@@ -92,6 +93,7 @@ class Driver {
     to.quality_threshold = gamma;
     to.passes = kPairPasses;
     to.threads = threads_;
+    to.rebuild_stars = false;
     TopoStats st = pair_flip_pass(m_, to, kPairBand, kPairMax, /*stop_at_worst=*/true, sub_log_, &alpha_);
     add(st, since(t));
     r_.pair_flips += st.pairs;
@@ -104,6 +106,7 @@ class Driver {
     to.quality_threshold = gamma;
     to.passes = 3;
     to.threads = threads_;
+    to.rebuild_stars = false;
     TopoStats st = flip_pass(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
@@ -250,6 +253,7 @@ class Driver {
       d.quality_threshold = 0.3;
       d.passes = 2;
       d.threads = threads_;
+      d.rebuild_stars = false;
       d.alpha_floor = worst();
       const TopoStats st = dihedral_pass(m_, d, sub_log_);
       alpha_.clear();
@@ -334,7 +338,11 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
   if (opt.weight < 0.5 || opt.weight >= 1.0)
     return Status::error(ErrorCode::InvalidMesh, "improve: weight C must satisfy 0.5 <= C < 1");
   Driver d(m, opt, rep, log, interrupted);
-  if (Status s = d.run(); !s) return s;
+  // The topology passes run without rebuilding the vertex stars after each
+  // (TopoOptions::rebuild_stars); the caller gets them built, error or not.
+  const Status run_status = d.run();
+  ensure_vertex_tets(m, opt.threads);
+  if (!run_status) return run_status;
 
   if (opt.check_invariants) {
     const auto tc = Clock::now();

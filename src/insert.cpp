@@ -21,6 +21,7 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     st.status = build_topology(m);
     if (!st.status) return st;
   }
+  ensure_vertex_tets(m);  // absent after topology passes run without rebuild_stars
   st.vertices_before = m.nv();
   st.tets_before = m.nt();
   TopoOptions to;

@@ -306,6 +306,10 @@ void star_csr(const std::vector<int32_t>& tets, int32_t nv, std::vector<int32_t>
 
 void build_vertex_tets(TetMesh& m, int threads) { star_csr(m.tets, m.nv(), m.vt_offsets, m.vt_tets, threads); }
 
+void ensure_vertex_tets(TetMesh& m, int threads) {
+  if (m.vt_offsets.size() != static_cast<size_t>(m.nv()) + 1) build_vertex_tets(m, threads);
+}
+
 namespace {
 // An error found in a parallel block, with the position it was found at so
 // that the first one in serial order is reported whatever the thread count.

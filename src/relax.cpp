@@ -288,6 +288,7 @@ std::vector<double> relax_size_field(const TetMesh& m, double gradation) {
 RelaxStats relax_pass(TetMesh& m, const RelaxOptions& o, const LogFn& log) {
   const auto t0 = Clock::now();
   RelaxStats st;
+  ensure_vertex_tets(m);  // absent after topology passes run without rebuild_stars
   AlphaSummary s = summarize(m);
   st.alpha_worst_before = s.worst;
   st.alpha_mean_before = s.mean;

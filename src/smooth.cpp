@@ -648,6 +648,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
   const int32_t nv = m.nv(), nt = m.nt();
   const double C = clamp_weight(o.weight);
   const int threads = detail::resolve_threads(o.threads);
+  ensure_vertex_tets(m, threads);  // absent after topology passes run without rebuild_stars
   std::unique_ptr<WorkerPool> pool;
   auto get_pool = [&]() -> WorkerPool& {
     if (!pool) pool = std::make_unique<WorkerPool>(threads);

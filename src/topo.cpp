@@ -1537,7 +1537,12 @@ void TopoEditor::finish() {
   // face_mask and tet_kind were kept right by commit() (new interior faces
   // are free, outer faces keep their bit, vertex flags never change), so
   // classify() is not needed; only the vertex->tet CSR is stale.
-  build_vertex_tets(m_, o_.threads);
+  if (o_.rebuild_stars) {
+    build_vertex_tets(m_, o_.threads);
+  } else {
+    m_.vt_offsets.clear();
+    m_.vt_tets.clear();
+  }
   m_.topology_epoch++;
   stats_.tets_after = nt;
 }
@@ -1810,6 +1815,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
     }
     // Relocate the free vertices of tets still below the threshold.
     int64_t moved = 0;
+    ensure_vertex_tets(m, d.threads);  // relocate_vertex reads stars
     {
       evaluator.reset();
       evaluator.emplace(m, d);  // measure evaluator (no edits: finish() is a no-op)

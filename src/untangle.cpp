@@ -201,10 +201,11 @@ UntangleStats untangle(TetMesh& m, const LogFn& log) { return untangle(m, Untang
 UntangleStats untangle(TetMesh& m, const UntangleOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   UntangleStats st;
-  if (m.vt_offsets.size() != static_cast<size_t>(m.nv()) + 1 || m.vert_constrained.size() != static_cast<size_t>(m.nv())) {
+  if (m.adj.size() != m.tets.size() || m.vert_constrained.size() != static_cast<size_t>(m.nv())) {
     st.status = Status::error(ErrorCode::Invariant, "untangle: topology not built");
     return st;
   }
+  ensure_vertex_tets(m);  // absent after topology passes run without rebuild_stars
   std::vector<int32_t> bad = nonpositive_tets(m);
   st.nonpositive_before = static_cast<int64_t>(bad.size());
   Solver solver(m, o);

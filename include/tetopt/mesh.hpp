@@ -114,7 +114,9 @@ struct TetMesh {
   const double* point(int32_t v) const { return &xyz[3 * static_cast<size_t>(v)]; }
   double* point(int32_t v) { return &xyz[3 * static_cast<size_t>(v)]; }
   const int32_t* tet(int32_t t) const { return &tets[4 * static_cast<size_t>(t)]; }
-  /// Tets around vertex v (valid after build_topology / build_vertex_tets).
+  /// Tets around vertex v (valid after build_topology / build_vertex_tets /
+  /// ensure_vertex_tets; a topology pass run with TopoOptions::rebuild_stars
+  /// false leaves the CSR empty).
   const int32_t* star_begin(int32_t v) const { return vt_tets.data() + vt_offsets[v]; }
   const int32_t* star_end(int32_t v) const { return vt_tets.data() + vt_offsets[v + 1]; }
   bool is_boundary_tet(int32_t t) const { return tet_kind[t] > 0; }
@@ -206,6 +208,11 @@ double tet_order_spread(const TetMesh& m, int threads = 1);
 /// Rebuilds only the vertex->tet CSR (after flips that kept adj up to date);
 /// the same CSR for every thread count (0 = all cores).
 void build_vertex_tets(TetMesh& m, int threads = 1);
+
+/// build_vertex_tets when the CSR is absent (vt_offsets not nv+1 long), as
+/// topology passes run with TopoOptions::rebuild_stars = false leave it.
+/// Everything in the library that reads stars after such passes calls it.
+void ensure_vertex_tets(TetMesh& m, int threads = 1);
 
 /// Deletes the vertices listed in `drop` (ids, any order, duplicates
 /// allowed) and renumbers the others in their order: xyz, vert_ref,

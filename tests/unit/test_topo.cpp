@@ -14,10 +14,13 @@
 #include <vector>
 
 #include "tetopt/generate.hpp"
+#include "tetopt/improve.hpp"
+#include "tetopt/invariants.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
+#include "tetopt/smooth.hpp"
 #include "tetopt/topo.hpp"
 
 using namespace tetopt;
@@ -524,6 +527,64 @@ TEST(Topo, FinishKeepsClassificationWithoutReclassifying) {
     EXPECT_EQ(off, m.vt_offsets);
     EXPECT_EQ(vt, m.vt_tets);
     expect_invariants(s, m);
+  }
+}
+
+TEST(Topo, PassesWithoutStarRebuildLeaveStarsEmptyAndTheirReadersBuildThem) {
+  // rebuild_stars = false: a pass that changed the mesh clears the
+  // vertex->tet CSR; smoothing rebuilds it on entry, so the flips + smoothing
+  // sequence gives the same mesh as with a rebuild after every pass; improve()
+  // returns the stars built.
+  for (int regions : {1, 2}) {
+    SCOPED_TRACE(regions);
+    BoxMeshOptions bo;
+    bo.nx = 5; bo.ny = 5; bo.nz = 4;
+    bo.jitter = 0.45;
+    bo.seed = 7;
+    bo.regions = regions;
+    TetMesh a = make_box_mesh(bo);
+    ASSERT_TRUE(build_topology(a).ok());
+    TetMesh b = a;
+    // The library's proof: constrained vertices and faces, region volumes,
+    // exact orientation (smoothing moves the free vertices).
+    const InvariantSnapshot inv = capture_invariants(a);
+    for (TetMesh* m : {&a, &b}) {
+      TopoOptions o;
+      o.quality_threshold = 0.5;
+      o.rebuild_stars = m == &b;
+      const TopoStats st = flip_pass(*m, o);
+      ASSERT_TRUE(st.status.ok());
+      ASSERT_GT(st.applied(), 0);
+      if (m == &a) {
+        EXPECT_TRUE(a.vt_offsets.empty());
+        EXPECT_TRUE(a.vt_tets.empty());
+      }
+      ASSERT_TRUE(remove_all_boundary_tets(*m, o).status.ok());
+      SmoothOptions so;
+      so.threshold = 0.5;
+      EXPECT_GT(smooth_pass(*m, so).moves_applied, 0);
+    }
+    EXPECT_EQ(a.tets, b.tets);
+    EXPECT_EQ(a.xyz, b.xyz);
+    EXPECT_EQ(a.vt_offsets, b.vt_offsets);
+    EXPECT_EQ(a.vt_tets, b.vt_tets);
+    TetMesh fresh = a;
+    build_vertex_tets(fresh);
+    EXPECT_EQ(a.vt_offsets, fresh.vt_offsets);
+    EXPECT_EQ(a.vt_tets, fresh.vt_tets);
+    EXPECT_TRUE(check_invariants(a, inv).ok());
+
+    TetMesh c = make_box_mesh(bo);
+    ASSERT_TRUE(build_topology(c).ok());
+    ImproveOptions io;
+    ImproveReport rep;
+    ASSERT_TRUE(improve(c, io, rep).ok());
+    EXPECT_GT(rep.flip23 + rep.flip32 + rep.flip44 + rep.edge_removals + rep.multi_face_removals, 0);
+    TetMesh c2 = c;
+    build_vertex_tets(c2);
+    ASSERT_EQ(c.vt_offsets.size(), static_cast<size_t>(c.nv()) + 1);
+    EXPECT_EQ(c.vt_offsets, c2.vt_offsets);
+    EXPECT_EQ(c.vt_tets, c2.vt_tets);
   }
 }
 
