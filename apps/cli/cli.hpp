@@ -44,6 +44,8 @@ bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet, int thre
 /// WHAT)" and returns kExitOutput, so that no output is written by a run
 /// that fails later on another one.  Returns kExitOk otherwise.  The main
 /// output may be the input (improve in place: written through a temporary).
+/// files[0] is the input mesh and, with out_may_be_in, files[1] the output
+/// mesh: a TetGen name among them stands for its .node, .ele and .face.
 int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::string>>& files,
                 bool out_may_be_in);
 

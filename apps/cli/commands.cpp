@@ -87,16 +87,36 @@ bool same_file(const std::string& a, const std::string& b) {
 }
 }  // namespace
 
+namespace {
+// The files a mesh path reads or writes: a TetGen name stands for its .node,
+// .ele and .face (the .face of an input may not exist).  Reports and field
+// files are one file whatever their extension (mesh = false).
+std::vector<std::string> files_of(const std::string& p, bool mesh) {
+  if (!mesh || format_from_path(p) != Format::TetGen) return {p};
+  const size_t dot = p.find_last_of('.');
+  const std::string base = p.substr(0, dot);
+  return {base + ".node", base + ".ele", base + ".face"};
+}
+}  // namespace
+
 int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::string>>& files, bool out_may_be_in) {
   for (size_t i = 0; i < files.size(); ++i) {
     if (files[i].second.empty()) continue;
     for (size_t j = i + 1; j < files.size(); ++j) {
       if (files[j].second.empty() || (out_may_be_in && i == 0 && j == 1)) continue;
-      if (same_file(files[i].second, files[j].second)) {
-        std::fprintf(stderr, "%s: %s and %s name the same file '%s'\n", cmd, files[i].first.c_str(),
-                     files[j].first.c_str(), files[j].second.c_str());
-        return kExitUsage;
-      }
+      // files[0] is IN; with out_may_be_in files[1] is the output mesh.
+      for (const std::string& a : files_of(files[i].second, i == 0 || (out_may_be_in && i == 1)))
+        for (const std::string& b : files_of(files[j].second, out_may_be_in && j == 1))
+          if (same_file(a, b)) {
+            if (a == files[i].second && b == files[j].second)
+              std::fprintf(stderr, "%s: %s and %s name the same file '%s'\n", cmd, files[i].first.c_str(),
+                           files[j].first.c_str(), b.c_str());
+            else
+              std::fprintf(stderr, "%s: %s ('%s') and %s ('%s') both name the file '%s' (a TetGen name stands for its .node, .ele and .face)\n",
+                           cmd, files[i].first.c_str(), files[i].second.c_str(), files[j].first.c_str(),
+                           files[j].second.c_str(), b.c_str());
+            return kExitUsage;
+          }
     }
   }
   // Every output can be written (its folder exists and is writable, and it
@@ -325,6 +345,8 @@ int cmd_convert(const std::vector<std::string>& args) {
     std::fprintf(stderr, "tetopt: %s: unknown output extension\n", pos[1].c_str());
     return kExitUsage;
   }
+  // OUT may be IN (rewritten in place); OUT must be writable before IN is read.
+  if (const int rc = check_paths("tetopt convert", {{"IN", pos[0]}, {"OUT", pos[1]}}, true); rc) return rc;
   TetMesh m;
   OrientationReport orient;
   Status s = read_mesh(pos[0], m, &orient, wo.threads);

@@ -10,6 +10,8 @@
 #include <random>
 #include <sstream>
 #include <unistd.h>
+#include <utility>
+#include <vector>
 
 #include "tetopt/io.hpp"
 
@@ -152,17 +154,13 @@ Status check_one_output(const std::string& shown, const std::string& target, boo
   return Status::success();
 }
 
-// Writes `path` through a temporary file in the same folder, renamed into
-// place at the end: body(fd) writes the bytes and returns write_failed() or
-// a format error, and on any failure the temporary is removed, so a failed
-// run never leaves a file, whole or half.  A symbolic link is followed (the
-// file it names is replaced, the link stays), and a target that is not a
-// regular file is refused before anything is written.
+// body(fd) writes a new temporary file `tmp` beside path's target (links
+// followed); the caller renames it to `target`.  On failure no file is left.
 template <class Body>
-Status write_through_temp(const std::string& path, const Body& body) {
-  const std::string target = follow_links(path);
+Status write_temp(const std::string& path, const Body& body, std::string& tmp, std::string& target) {
+  target = follow_links(path);
   if (Status s = check_one_output(path, target, false); !s) return s;
-  const std::string tmp = temp_name(target);
+  tmp = temp_name(target);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
   Status s = body(fd);
@@ -171,10 +169,52 @@ Status write_through_temp(const std::string& path, const Body& body) {
     std::remove(tmp.c_str());
     return Status::error(s.code, path + ": " + s.message);
   }
-  if (std::rename(tmp.c_str(), target.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
+  return Status::success();
+}
+
+Status rename_into_place(const std::string& path, const std::string& tmp, const std::string& target) {
+  if (std::rename(tmp.c_str(), target.c_str()) == 0) return Status::success();
+  std::remove(tmp.c_str());
+  return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
+}
+
+// Writes `path` through a temporary file in the same folder, renamed into
+// place at the end: body(fd) writes the bytes and returns write_failed() or
+// a format error, and on any failure the temporary is removed, so a failed
+// run never leaves a file, whole or half.  A symbolic link is followed (the
+// file it names is replaced, the link stays), and a target that is not a
+// regular file is refused before anything is written.
+template <class Body>
+Status write_through_temp(const std::string& path, const Body& body) {
+  std::string tmp, target;
+  if (Status s = write_temp(path, body, tmp, target); !s) return s;
+  return rename_into_place(path, tmp, target);
+}
+
+// Several files, all or none: every one is written to its temporary file
+// before any is renamed into place, so a full disk or an unwritable name
+// leaves none of the new files (a TetGen .node/.ele/.face set).
+Status write_files_atomic(const std::vector<std::pair<std::string, std::string_view>>& files) {
+  std::vector<std::string> tmps, targets;
+  auto drop = [&](size_t from) {
+    for (size_t k = from; k < tmps.size(); ++k) std::remove(tmps[k].c_str());
+  };
+  for (const auto& [path, bytes] : files) {
+    std::string tmp, target;
+    const Status s = write_temp(
+        path, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); }, tmp, target);
+    if (!s) {
+      drop(0);
+      return s;
+    }
+    tmps.push_back(tmp);
+    targets.push_back(target);
   }
+  for (size_t k = 0; k < tmps.size(); ++k)
+    if (Status s = rename_into_place(files[k].first, tmps[k], targets[k]); !s) {
+      drop(k + 1);
+      return s;
+    }
   return Status::success();
 }
 
@@ -295,10 +335,9 @@ Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions&
       std::string ele, face;
       if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, path + ": " + s.message);
       const std::string base = stem(path);
-      if (s = write_file_atomic(base + ".node", out); !s) return s;
-      if (s = write_file_atomic(base + ".ele", ele); !s) return s;
-      // Always written (possibly empty) so a stale .face never pairs with new .node/.ele.
-      return write_file_atomic(base + ".face", face);
+      // .face always written (possibly empty) so a stale .face never pairs
+      // with new .node/.ele; the three files all or none.
+      return write_files_atomic({{base + ".node", out}, {base + ".ele", ele}, {base + ".face", face}});
     }
     case Format::Medit: return write_medit_streamed(path, m, opt.threads);
     case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;

@@ -13,7 +13,8 @@
 // fixes the numbering of every file.  Like TetGen's own reader, missing
 // trailing attributes / markers read as 0 and extra columns are ignored;
 // missing coordinates or vertex ids are errors.  Point ids must be
-// consecutive, since the other files refer to points by id.
+// consecutive, since the other files refer to points by id.  A record after
+// the count of the header is an error (the count would drop it unseen).
 //
 // Orientation: TetGen 1.5 writes .ele tets with a positive right-hand
 // determinant, as conventions.hpp; Stellar's files (e.g. house2) use the
@@ -157,6 +158,16 @@ class TetgenReader {
                     std::to_string(got) + " (truncated file or lying count)");
   }
 
+  /// After the n records the header claims, only comments and blank lines may
+  /// follow: a further record means a count that is too small (its records
+  /// would be dropped without a word).
+  Status no_more(const char* ext, LineReader& r, int64_t n, const char* what) const {
+    if (!r.next()) return Status::success();
+    return fail(ErrorCode::Parse, ext, r.line(),
+                "a record after the " + std::to_string(n) + " " + what +
+                    " the header claims (lying count, or two files run together)");
+  }
+
   /// Reads a vertex id at token i into a 0-based index.
   Status vertex_id(const char* ext, const LineReader& r, size_t i, int32_t& v) const {
     int64_t x = 0;
@@ -222,7 +233,7 @@ class TetgenReader {
         m_.vert_ref.push_back(static_cast<int32_t>(mark));
       }
     }
-    return Status::success();
+    return no_more(ext, r, n, "points");
   }
 
   Status read_ele(std::string_view data) {
@@ -263,7 +274,7 @@ class TetgenReader {
       }
       m_.tet_ref.push_back(region);
     }
-    return Status::success();
+    return no_more(ext, r, n, "tetrahedra");
   }
 
   Status read_face(std::string_view data) {
@@ -295,7 +306,7 @@ class TetgenReader {
         return fail(ErrorCode::Parse, ext, r.line(), "boundary marker does not fit in 32 bits");
       m_.tri_ref.push_back(static_cast<int32_t>(mark));
     }
-    return Status::success();
+    return no_more(ext, r, n, "faces");
   }
 
   const std::string& base_;

@@ -147,6 +147,20 @@ check "improve --html over IN: exit 1, IN intact, no output" '[ $rc -eq 1 ] && c
 check "improve --report over -o: exit 1, nothing written" '[ $rc -eq 1 ] && [ ! -e "$W/side.mesh" ]'
 "$T" improve "$W/keep.mesh" -o "$W/side.mesh" --field "$W/no/such/f.vtu" -q 2> "$W/side.err"; rc=$?
 check "improve --field into a missing folder: exit 4, no output written" '[ $rc -eq 4 ] && [ ! -e "$W/side.mesh" ] && grep -q "no such folder" "$W/side.err"'
+# A TetGen name stands for its .node, .ele and .face: a side output over one
+# of IN's or OUT's companions is refused like one over the file named.
+"$T" convert "$W/keep.mesh" "$W/tg.node" && cp "$W/tg.ele" "$W/tg.ele.orig"
+"$T" improve "$W/tg.node" -o "$W/tgo.mesh" --report "$W/tg.ele" -q 2> "$W/tg.err"; rc=$?
+check "improve --report over IN's .ele: exit 1, IN intact, no output" \
+  '[ $rc -eq 1 ] && cmp -s "$W/tg.ele" "$W/tg.ele.orig" && [ ! -e "$W/tgo.mesh" ] && grep -q "both name the file" "$W/tg.err"'
+"$T" improve "$W/keep.mesh" -o "$W/tgo.node" --html "$W/tgo.face" -q 2> /dev/null; rc=$?
+check "improve --html over OUT's .face: exit 1, nothing written" '[ $rc -eq 1 ] && [ ! -e "$W/tgo.node" ] && [ ! -e "$W/tgo.face" ]'
+"$T" improve "$W/keep.mesh" -o "$W/tgr.mesh" --report "$W/tgr.ele" -q; rc=$?
+check "a report named .ele beside a .mesh output is fine" '[ $rc -eq 0 ] && [ -s "$W/tgr.ele" ]'
+mkdir -p "$W/tgd.face"
+"$T" convert "$W/keep.mesh" "$W/tgd.node" 2> "$W/tg.err"; rc=$?
+check "convert to a TetGen set whose .face is a folder: exit 4, no .node or .ele" \
+  '[ $rc -eq 4 ] && [ ! -e "$W/tgd.node" ] && [ ! -e "$W/tgd.ele" ] && grep -q "tgd.face" "$W/tg.err"'
 # An output that is a folder, a FIFO or a link to a device is refused before
 # any work (renaming the temporary over it would replace it): exit 4, the
 # target as it was, no other output written.  A link to a regular file is
