@@ -53,6 +53,43 @@ std::vector<std::array<int32_t, 5>> constrained_faces(const TetMesh& m, int thre
   }
   return parts.empty() ? std::vector<Key>{} : std::move(parts[0]);
 }
+// Ids (ascending) of the listed edges that are an edge of some tet.  Only
+// tets with two listed-edge endpoints are looked at, and no vertex stars are
+// needed (they may be stale after topology passes, see TopoOptions).
+std::vector<int32_t> listed_edges_in_mesh(const TetMesh& m, int threads) {
+  std::vector<int32_t> found;
+  const size_t ne = m.edges.size() / 2;
+  if (ne == 0) return found;
+  std::vector<uint8_t> end(static_cast<size_t>(m.nv()), 0);
+  for (int32_t v : m.edges)
+    if (v >= 0 && v < m.nv()) end[v] = 1;
+  auto key = [](int32_t a, int32_t b) {
+    if (a > b) std::swap(a, b);
+    return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b);
+  };
+  std::vector<std::pair<uint64_t, int32_t>> keys(ne);
+  for (size_t i = 0; i < ne; ++i) keys[i] = {key(m.edges[2 * i], m.edges[2 * i + 1]), static_cast<int32_t>(i)};
+  std::sort(keys.begin(), keys.end());
+  const std::vector<int32_t> near = detail::parallel_select(m.nt(), threads, [&](int64_t t) {
+    const int32_t* v = m.tet(static_cast<int32_t>(t));
+    return end[v[0]] + end[v[1]] + end[v[2]] + end[v[3]] >= 2;
+  });
+  std::vector<uint8_t> hit(ne, 0);
+  for (int32_t t : near) {
+    const int32_t* v = m.tet(t);
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        if (!end[v[i]] || !end[v[j]]) continue;
+        const uint64_t k = key(v[i], v[j]);
+        for (auto it = std::lower_bound(keys.begin(), keys.end(), std::make_pair(k, int32_t{-1}));
+             it != keys.end() && it->first == k; ++it)
+          hit[static_cast<size_t>(it->second)] = 1;
+      }
+  }
+  for (size_t i = 0; i < ne; ++i)
+    if (hit[i]) found.push_back(static_cast<int32_t>(i));
+  return found;
+}
 }  // namespace
 
 namespace {
@@ -101,6 +138,9 @@ InvariantSnapshot capture_invariants(const TetMesh& m, int threads) {
   s.region_volume = region_volumes(m, threads);
   s.tris = m.tris;
   s.tri_ref = m.tri_ref;
+  s.edges = m.edges;
+  s.edge_ref = m.edge_ref;
+  s.edges_in_mesh = listed_edges_in_mesh(m, threads);
   const std::vector<int32_t> bad = nonpositive_tets(m, threads);
   s.nonpositive = static_cast<int64_t>(bad.size());
   for (int32_t t : bad) s.tangled_vertices.insert(s.tangled_vertices.end(), m.tet(t), m.tet(t) + 4);
@@ -122,6 +162,14 @@ Status check_invariants(const TetMesh& m, const InvariantSnapshot& b, int thread
     if (std::memcmp(m.point(b.vertices[i]), &b.coords[3 * i], 3 * sizeof(double)) != 0)
       return fail("constrained vertex " + std::to_string(b.vertices[i] + 1) + " moved");
   if (m.tris != b.tris || m.tri_ref != b.tri_ref) return fail("listed boundary triangles or their refs changed");
+  if (m.edges != b.edges || m.edge_ref != b.edge_ref) return fail("listed edges or their refs changed");
+  if (!b.edges_in_mesh.empty()) {
+    const std::vector<int32_t> now = listed_edges_in_mesh(m, threads);
+    for (int32_t e : b.edges_in_mesh)
+      if (!std::binary_search(now.begin(), now.end(), e))
+        return fail("listed edge " + std::to_string(e + 1) + " (vertices " + std::to_string(m.edges[2 * e] + 1) + " " +
+                    std::to_string(m.edges[2 * e + 1] + 1) + ") is no longer an edge of the mesh");
+  }
   // Orientation: no tet may become inverted or flat outside the input's own
   // tangles, and their number may not grow (see the header).
   const std::vector<int32_t> bad = nonpositive_tets(m, threads);

@@ -507,6 +507,10 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
       r.take[e] = false;
       if (e == r.parent_edge || nt >= max_tris) continue;
       const int32_t x = r.v[e], y = r.v[(e + 1) % 3], z = r.v[(e + 2) % 3];
+      // Taking the child across (x, y) removes that edge (it becomes a
+      // diagonal inside the removed sandwich): a listed edge stays on the ring.
+      if (!listed_edges_.empty() && std::binary_search(listed_edges_.begin(), listed_edges_.end(), edge_key(x, y)))
+        continue;
       const int lu = local_of(m_.tet(r.up), z), ll = local_of(m_.tet(r.lo), z);
       const int32_t fu = 4 * r.up + lu, fl = 4 * r.lo + ll;
       if (removable(fu) != TopoResult::Applied || removable(fl) != TopoResult::Applied) continue;

@@ -5,7 +5,8 @@
 // constrained faces (boundary, region interfaces, listed triangles) as sorted
 // vertex triples with the refs on either side, and the volume of every region.
 // After improving, check_invariants() proves the result keeps the promise:
-// same vertices at the same bits, the same constrained faces, no tet made
+// same vertices at the same bits, the same constrained faces, every listed
+// edge that was an edge of the mesh still one, no tet made
 // inverted or flat (exact orient3d, see below), region volumes equal to 1e-9
 // of the total volume.  Any failure is a bug: the caller must not write the
 // mesh.
@@ -39,6 +40,8 @@ struct InvariantSnapshot {
   std::vector<std::array<int32_t, 5>> faces;  ///< sorted (a,b,c, ref inside, ref outside or -1)
   std::vector<std::pair<int32_t, double>> region_volume;
   std::vector<int32_t> tris, tri_ref;         ///< listed triangles as read
+  std::vector<int32_t> edges, edge_ref;       ///< listed edges as read
+  std::vector<int32_t> edges_in_mesh;         ///< ids of the listed edges that are edges of a tet
   int64_t nonpositive = 0;                    ///< inverted or flat tets (exact), N0 above
   std::vector<int32_t> tangled_vertices;      ///< S above: vertices of those tets, ascending
 };

@@ -353,6 +353,55 @@ TEST(Topo, MultiFaceRemovalInvertsEdgeRemoval) {
   EXPECT_NEAR(worst_alpha(m), shell, 1e-12);
 }
 
+TEST(Topo, MultiFaceRemovalKeepsAListedEdge) {
+  // The same sandwich with fan diagonal (2, 4) listed as an edge: removing
+  // all three sandwich faces would delete it (it was deleted so on the
+  // command line, with meshcheck none the wiser); the removal may take only
+  // faces on one side of it, and the edge stays an edge of the mesh.
+  const int n = 5;
+  auto p = ring_points(n, 1.0, 0.6);
+  std::vector<std::array<int32_t, 4>> tets;
+  for (int k = 1; k + 1 < n; ++k) {
+    tets.push_back({2, 2 + k, 2 + k + 1, 1});
+    tets.push_back({2, 2 + k + 1, 2 + k, 0});
+  }
+  TetMesh m = make_mesh(p, tets);
+  TetMesh unlisted = m;
+  m.edges = {4, 2, 0, 1};  // (0, 1) is no edge of the mesh yet: nothing to keep
+  m.edge_ref = {9, 8};
+  ASSERT_TRUE(build_topology(m).ok());
+  const Snapshot s = snap(m);
+  const InvariantSnapshot proof = capture_invariants(m);
+  EXPECT_EQ(proof.edges_in_mesh, std::vector<int32_t>{0});
+  int lf = 0;
+  while (m.tets[4 * 1 + lf] != 0) ++lf;
+  {
+    TopoEditor ed(m, {});
+    ed.remove_multi_face(1, lf);
+    ed.finish();
+  }
+  expect_invariants(s, m);
+  bool found = false;
+  for (int32_t t = 0; t < m.nt() && !found; ++t) found = has_vertex(m, t, 2) && has_vertex(m, t, 4);
+  EXPECT_TRUE(found);
+  EXPECT_GT(m.nt(), n);  // not the 5 tets around (0, 1) of the unlisted case
+  EXPECT_TRUE(check_invariants(m, proof).ok()) << check_invariants(m, proof).message;
+  // The library's proof catches the loss: the same removal without the
+  // list, then the list put back.
+  ASSERT_TRUE(build_topology(unlisted).ok());
+  {
+    TopoEditor ed(unlisted, {});
+    ASSERT_EQ(ed.remove_multi_face(1, lf), TopoResult::Applied);
+    ed.finish();
+  }
+  unlisted.edges = m.edges;
+  unlisted.edge_ref = m.edge_ref;
+  classify(unlisted);
+  const Status st = check_invariants(unlisted, proof);
+  EXPECT_FALSE(st.ok());
+  EXPECT_NE(st.message.find("listed edge 1 (vertices 5 3) is no longer an edge"), std::string::npos) << st.message;
+}
+
 TEST(Topo, EditorKeepsAdjacencyAndMasksIncrementally) {
   BoxMeshOptions bo;
   bo.nx = bo.ny = bo.nz = 4;
