@@ -19,6 +19,10 @@ inline constexpr int kExitInterrupted = 130;
 
 extern std::atomic<bool> g_interrupted;
 void on_sigint(int);
+/// SIGBUS while an input's memory map is read (read_input): one line, exit 2.
+void on_sigbus(int);
+/// read_mesh with on_sigbus told which file is being read.
+tetopt::Status read_input(const std::string& path, tetopt::TetMesh& m, tetopt::OrientationReport* orient, int threads);
 
 int cmd_quality(const std::vector<std::string>& args);
 int cmd_convert(const std::vector<std::string>& args);

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -25,6 +26,46 @@ using namespace tetopt;
 
 std::atomic<bool> g_interrupted{false};
 void on_sigint(int) { g_interrupted = true; }
+
+namespace {
+// The input being read (its memory map is live), for on_sigbus.
+const char* volatile g_reading = nullptr;
+void put_err(const char* s) {
+  size_t n = 0;
+  while (s[n]) ++n;
+  while (n > 0) {
+    const ssize_t w = ::write(2, s, n);
+    if (w <= 0) return;
+    s += w;
+    n -= static_cast<size_t>(w);
+  }
+}
+}  // namespace
+
+// The readers parse a memory map of the input; when another program shrinks
+// the file meanwhile, touching a page past its new end raises SIGBUS.  Then:
+// one line naming the file and exit 2 (nothing was written yet), instead of
+// a core dump.  Only async-signal-safe calls.  Any other SIGBUS keeps its
+// default action.
+void on_sigbus(int sig) {
+  const char* path = g_reading;
+  if (!path) {
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+    return;
+  }
+  put_err("tetopt: ");
+  put_err(path);
+  put_err(": the file shrank while it was read (bus error on its memory map); nothing written\n");
+  ::_exit(kExitInput);
+}
+
+Status read_input(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
+  g_reading = path.c_str();
+  Status s = read_mesh(path, m, orient, threads);
+  g_reading = nullptr;
+  return s;
+}
 
 bool stderr_is_tty() { return ::isatty(2) == 1; }
 
@@ -143,7 +184,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std
   struct stat st {};
   if (stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && heap_serves(static_cast<size_t>(st.st_size) / 2))
     prefault_heap(static_cast<size_t>(st.st_size), threads);
-  Status s = read_mesh(path, m, &orient, threads);
+  Status s = read_input(path, m, &orient, threads);
   if (!s) {
     if (progress) std::fputs("\033[K", stderr);
     std::fprintf(stderr, "tetopt: %s\n", s.message.c_str());
@@ -161,7 +202,7 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std
     order->clear();
     m = TetMesh{};
     orient = OrientationReport{};
-    s = read_mesh(path, m, &orient, threads);
+    s = read_input(path, m, &orient, threads);
     if (s) s = build_topology(m, threads);
     if (s) s = orient_consistently(m, false, &orient, threads);
   }
@@ -349,7 +390,7 @@ int cmd_convert(const std::vector<std::string>& args) {
   if (const int rc = check_paths("tetopt convert", {{"IN", pos[0]}, {"OUT", pos[1]}}, true); rc) return rc;
   TetMesh m;
   OrientationReport orient;
-  Status s = read_mesh(pos[0], m, &orient, wo.threads);
+  Status s = read_input(pos[0], m, &orient, wo.threads);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitInput; }
   s = write_mesh(pos[1], m, wo);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }

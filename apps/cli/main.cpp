@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
   tetopt_cli::reexec_with_huge_pages(argv);
   tetopt_cli::keep_freed_memory();
   std::signal(SIGINT, tetopt_cli::on_sigint);
+  std::signal(SIGBUS, tetopt_cli::on_sigbus);
   if (argc < 2) {
     std::fputs(kMainHelp, stderr);
     return tetopt_cli::kExitUsage;
