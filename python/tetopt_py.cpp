@@ -505,7 +505,9 @@ std::string run_improve(TetMesh& m, const tetopt::ImproveOptions& opt, const py:
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // The arrays are improved in the order given (the CLI may put a large
   // scattered mesh in Morton order first; here the caller owns the order).
-  js.insert(js.size() - 2, ",\n  \"seconds_end_to_end\": " + std::to_string(total) + ",\n  \"tets_reordered\": false");
+  // No file is written here: nothing is dropped on a write.
+  js.insert(js.size() - 2, ",\n  \"seconds_end_to_end\": " + std::to_string(total) +
+                               ",\n  \"tets_reordered\": false,\n  \"dropped_on_write\": []");
   return js;
 }
 

@@ -5,6 +5,7 @@
 #include <utility>
 #include <vector>
 
+#include "tetopt/io.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/status.hpp"
 

@@ -340,9 +340,13 @@ static const char* kConvertHelp =
     "Converts a tetrahedral mesh between formats, chosen by extension:\n"
     "  .mesh .meshb  Medit (GMF)        .msh  Gmsh 2.2 / 4.1 (default 4.1)\n"
     "  .vtk .vtu     VTK legacy / XML   .node/.ele[/.face]  TetGen\n"
-    "Refs (vertex, triangle, tet), physical names, listed edges and required\n"
-    "entities are kept; coordinates round-trip bit for bit.  The output is\n"
-    "written to a temporary file and renamed, so a failure leaves no half file.\n"
+    "Tets, listed triangles and their refs are kept in every format, and\n"
+    "coordinates round-trip bit for bit.  What OUT's format cannot hold is\n"
+    "named in a warning and left out: vertex refs in .msh/.vtk/.vtu, required\n"
+    "entities and ridges outside Medit, listed edges and corners in TetGen,\n"
+    "physical names outside Gmsh, point data arrays outside VTK.  The output\n"
+    "is written to a temporary file (TetGen: all three) and renamed, so a\n"
+    "failure leaves no half file.\n"
     "\n"
     "options:\n"
     "  --msh-version V   22 or 41 for .msh output (default 41)\n"
@@ -392,6 +396,7 @@ int cmd_convert(const std::vector<std::string>& args) {
   OrientationReport orient;
   Status s = read_input(pos[0], m, &orient, wo.threads);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitInput; }
+  warn_dropped(pos[1], m, wo, false);
   s = write_mesh(pos[1], m, wo);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
   return kExitOk;

@@ -3,6 +3,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 namespace tetopt_cli {
@@ -158,6 +159,18 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     return R::Error;
   }
   return R::Ok;
+}
+
+std::vector<std::string> warn_dropped(const std::string& out, const tetopt::TetMesh& m, const tetopt::WriteOptions& wo,
+                                      bool quiet) {
+  std::vector<std::string> lost = tetopt::dropped_by_format(m, tetopt::format_from_path(out), wo);
+  if (!lost.empty() && !quiet) {
+    std::string list;
+    for (size_t i = 0; i < lost.size(); ++i) list += (i ? (i + 1 == lost.size() ? " and " : ", ") : "") + lost[i];
+    std::fprintf(stderr, "warning: %s: this format cannot hold the input's %s: left out (docs/formats.md, \"What is kept\")\n",
+                 out.c_str(), list.c_str());
+  }
+  return lost;
 }
 
 }  // namespace tetopt_cli

@@ -82,4 +82,10 @@ bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& or
 ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,
                                      const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err);
 
+/// What OUT's format cannot hold of m (tetopt::dropped_by_format), printed
+/// as one warning line unless quiet; returned for the report
+/// (dropped_on_write).
+std::vector<std::string> warn_dropped(const std::string& out, const tetopt::TetMesh& m, const tetopt::WriteOptions& wo,
+                                      bool quiet);
+
 }  // namespace tetopt_cli

@@ -446,6 +446,7 @@ int leader(const Args& a, int size) {
   if (a.verbose && sorted)
     std::fprintf(stderr, "tets put in Morton order of their centroids (IN's order is scattered; --keep-order keeps it)\n");
   const double t_read = now() - t_start;
+  const std::vector<std::string> dropped = tetopt_cli::warn_dropped(a.out, g, a.wo, a.quiet);
   const InvariantSnapshot snap = capture_invariants(g, kRank0Threads);
   std::vector<uint8_t> used_in(static_cast<size_t>(g.nv()), 0);  // vertices a tet of IN uses
   for (int32_t v : g.tets) used_in[v] = 1;
@@ -756,6 +757,9 @@ int leader(const Args& a, int size) {
   if (!a.report.empty()) {
     int64_t bs = 0, bg = 0;
     for (const RoundLog& L : logs) { bs += L.bytes_scatter; bg += L.bytes_gather; }
+    std::string dropped_json = "[";
+    for (size_t i = 0; i < dropped.size(); ++i) dropped_json += (i ? ", " : "") + json_string(dropped[i]);
+    dropped_json += "]";
     std::string js = "{\n  \"tool\": \"tetopt-mpi\",\n  \"input\": " + json_string(a.in) +
                      ",\n  \"output\": " + json_string(a.out) + ",\n  \"ranks\": " + std::to_string(size) +
                      ",\n  \"threads_per_rank\": " + std::to_string(a.opt.threads) +
@@ -766,6 +770,7 @@ int leader(const Args& a, int size) {
                      ",\n  \"seconds_write\": " + num(t_write) + ",\n  \"seconds_per_rank_files\": " + num(t_parts) +
                      ",\n  \"seconds_end_to_end\": " + num(total) +
                      ",\n  \"tets_reordered\": " + (order.empty() ? "false" : "true") +
+                     ",\n  \"dropped_on_write\": " + dropped_json +
                      ",\n  \"bytes_scatter\": " + std::to_string(bs) + ",\n  \"bytes_gather\": " + std::to_string(bg) +
                      ",\n  \"invariants_ok\": true,\n  \"rounds\": [\n";
     for (size_t i = 0; i < logs.size(); ++i) js += round_json(logs[i]) + (i + 1 < logs.size() ? ",\n" : "\n");

@@ -83,6 +83,13 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient 
 /// TetMesh::flipped_on_read) atomically: temporary file, then rename.
 Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions& opt = {});
 
+/// What m holds that a file of the given format cannot carry and the writer
+/// therefore leaves out, one phrase per kind with its count, e.g. "vertex
+/// refs (12 nonzero)", "physical names (3)"; empty when the file keeps
+/// everything (see docs/formats.md, "What is kept").  The command line tool
+/// prints them as a warning and lists them in improve's report.
+std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const WriteOptions& opt = {});
+
 /// Reads a whole file into memory (Io error naming the path on failure).
 Status read_file_bytes(const std::string& path, std::string& out);
 /// Writes bytes to path through a temporary file and rename.

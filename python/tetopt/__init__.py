@@ -262,7 +262,8 @@ def improve(
             statistics as ``quality()``), operations, seconds,
             boundary_unchanged, seconds_end_to_end, tets_reordered (always
             False: the tets are improved in the order given, where ``tetopt
-            improve`` may first put a large mesh in Morton order) (and
+            improve`` may first put a large mesh in Morton order),
+            dropped_on_write (always empty: no file is written) (and
             diagnosis when ``diagnose``).
 
     Raises:

@@ -1,4 +1,5 @@
 // Format dispatch, whole-file reading and atomic writing (see io.hpp).
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -321,6 +322,46 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
   OrientationReport r = normalize_orientation(m, threads);
   if (orient) *orient = std::move(r);
   return Status::success();
+}
+
+std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const WriteOptions& opt) {
+  std::vector<std::string> out;
+  auto add = [&](int64_t n, const std::string& what, const char* unit = "") {
+    if (n > 0) out.push_back(what + " (" + std::to_string(n) + unit + ")");
+  };
+  const bool medit = f == Format::Medit || f == Format::MeditBinary, gmsh = f == Format::Gmsh,
+             vtk = f == Format::Vtk || f == Format::Vtu, tetgen = f == Format::TetGen;
+  if (gmsh || vtk) add(std::count_if(m.vert_ref.begin(), m.vert_ref.end(), [](int32_t r) { return r != 0; }),
+                       "vertex refs", " nonzero");
+  if (tetgen) {
+    add(static_cast<int64_t>(m.edges.size() / 2), "listed edges");
+    add(static_cast<int64_t>(m.corners.size()), "corners");
+  }
+  if (!medit) {
+    add(static_cast<int64_t>(m.required_vertices.size()), "required vertices");
+    add(static_cast<int64_t>(m.required_edges.size()), "required edges");
+    add(static_cast<int64_t>(m.required_tris.size()), "required triangles");
+    add(static_cast<int64_t>(m.ridges.size()), "ridges");
+  }
+  if (!gmsh) {
+    add(static_cast<int64_t>(m.physical_names.size()), "physical names");
+    // Entity tags equal to the refs (as the Gmsh writers make them for a mesh
+    // from another format) say nothing more.
+    int64_t own = 0;
+    for (size_t t = 0; t < m.tet_entity.size() && t < m.tet_ref.size(); ++t) own += m.tet_entity[t] != m.tet_ref[t];
+    for (size_t t = 0; t < m.tri_entity.size() && t < m.tri_ref.size(); ++t) own += m.tri_entity[t] != m.tri_ref[t];
+    add(own, "Gmsh elementary entity tags", " differing from the refs");
+  }
+  if (!gmsh || opt.msh_version == 22)
+    add(std::count_if(m.gmsh_entities.begin(), m.gmsh_entities.end(),
+                      [](const TetMesh::GmshEntity& e) { return e.physicals.size() > 1; }),
+        "second physical groups of Gmsh entities", " entities");
+  if (!vtk && !m.point_fields.empty()) {
+    std::string names;
+    for (const TetMesh::PointField& p : m.point_fields) names += (names.empty() ? "" : ", ") + p.name;
+    out.push_back("point data arrays (" + names + ")");
+  }
+  return out;
 }
 
 Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions& opt) {

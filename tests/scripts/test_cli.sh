@@ -161,6 +161,16 @@ mkdir -p "$W/tgd.face"
 "$T" convert "$W/keep.mesh" "$W/tgd.node" 2> "$W/tg.err"; rc=$?
 check "convert to a TetGen set whose .face is a folder: exit 4, no .node or .ele" \
   '[ $rc -eq 4 ] && [ ! -e "$W/tgd.node" ] && [ ! -e "$W/tgd.ele" ] && grep -q "tgd.face" "$W/tg.err"'
+# What OUT's format cannot hold is named in a warning and in the report.
+printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n5\n0 0 0 1\n1 0 0 2\n0 1 0 0\n0 0 1 0\n1 1 1 7\nTetrahedra\n2\n1 2 3 4 1\n2 3 4 5 2\nRequiredVertices\n1\n2\nEnd\n' > "$W/vr.mesh"
+"$T" convert "$W/vr.mesh" "$W/vr.msh" 2> "$W/vr.err"; rc=$?
+check "convert to .msh warns of the vertex refs and required vertices it leaves out" \
+  '[ $rc -eq 0 ] && grep -q "vr.msh: this format cannot hold the input.s vertex refs (3 nonzero) and required vertices (1)" "$W/vr.err"'
+"$T" convert "$W/vr.mesh" "$W/vr2.mesh" 2> "$W/vr.err"
+check "convert to .mesh keeps everything: no warning" '[ ! -s "$W/vr.err" ]'
+"$T" improve "$W/vr.mesh" -o "$W/vr.vtu" --report "$W/vr.json" -q 2> "$W/vr.err"
+check "improve -q: no warning, the report lists what was left out" \
+  '[ ! -s "$W/vr.err" ] && /usr/bin/python3 -c "import json,sys; sys.exit(json.load(open(sys.argv[1]))[\"dropped_on_write\"] != [\"vertex refs (3 nonzero)\", \"required vertices (1)\"])" "$W/vr.json"'
 # An output that is a folder, a FIFO or a link to a device is refused before
 # any work (renaming the temporary over it would replace it): exit 4, the
 # target as it was, no other output written.  A link to a regular file is

@@ -589,3 +589,53 @@ TEST(IoGmshPerf, LargeAsciiParsesQuickly) {
   EXPECT_EQ(r.nt(), m.nt());
   EXPECT_LT(secs, 5.0) << r.nt() << " tets took " << secs << " s";
 }
+
+TEST(IoFormats, DroppedByFormatNamesExactlyWhatTheFileLoses) {
+  // Every kind of data one format or another cannot hold, written to each
+  // format and read back: a kind is named by dropped_by_format exactly when
+  // it does not come back.
+  TetMesh m = sample_mesh();
+  m.vert_ref.assign(m.nv(), 0);
+  m.vert_ref[2] = 7;
+  m.vert_ref[5] = -1;
+  m.required_vertices = {1};
+  m.required_edges = {0};
+  m.required_tris = {0, 1};
+  m.ridges = {2};
+  m.point_fields.push_back({"fixed", 1, true, std::vector<double>(m.nv(), 1.0)});
+  const fs::path d = fs::temp_directory_path() / ("tetopt_dropped_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  struct Case {
+    const char* name;
+    int msh_version;
+  };
+  for (const Case c : {Case{"a.mesh", 41}, Case{"a.meshb", 41}, Case{"a.msh", 41}, Case{"b.msh", 22},
+                       Case{"a.vtk", 41}, Case{"a.vtu", 41}, Case{"a.node", 41}}) {
+    SCOPED_TRACE(c.name);
+    const std::string path = (d / c.name).string();
+    WriteOptions wo;
+    wo.msh_version = c.msh_version;
+    const std::vector<std::string> lost = dropped_by_format(m, format_from_path(path), wo);
+    auto named = [&](const std::string& what) {
+      return std::any_of(lost.begin(), lost.end(), [&](const std::string& s) { return s.rfind(what, 0) == 0; });
+    };
+    ASSERT_TRUE(write_mesh(path, m, wo).ok());
+    TetMesh r;
+    const Status s = read_mesh(path, r);
+    ASSERT_TRUE(s.ok()) << s.message;
+    // Tets may come back reordered by nothing here: same ids expected.
+    EXPECT_EQ(r.tet_ref, m.tet_ref);
+    EXPECT_EQ(r.tri_ref, m.tri_ref);
+    EXPECT_EQ(named("vertex refs"), r.vert_ref != m.vert_ref);
+    EXPECT_EQ(named("listed edges"), r.edges.empty());
+    EXPECT_EQ(named("corners"), r.corners.empty());
+    EXPECT_EQ(named("required vertices"), r.required_vertices.empty());
+    EXPECT_EQ(named("required edges"), r.required_edges.empty());
+    EXPECT_EQ(named("required triangles"), r.required_tris.empty());
+    EXPECT_EQ(named("ridges"), r.ridges.empty());
+    EXPECT_EQ(named("physical names"), r.physical_names.empty());
+    EXPECT_EQ(named("Gmsh elementary entity tags"), r.tet_entity != m.tet_entity || r.tri_entity != m.tri_entity);
+    EXPECT_EQ(named("point data arrays (fixed)"), r.point_fields.empty());
+  }
+  fs::remove_all(d);
+}
