@@ -84,14 +84,38 @@ std::string format_histograms(const QualityStats& s) {
   return o.str();
 }
 
+namespace {
+// Length of the well-formed UTF-8 sequence at s[i] (RFC 3629, section 4:
+// no overlong forms, no surrogates, nothing past U+10FFFF), 0 if there is none.
+size_t utf8_length(const std::string& s, size_t i) {
+  const auto b = [&](size_t k) { return static_cast<unsigned char>(s[k]); };
+  const unsigned char c = b(i);
+  if (c < 0x80) return 1;
+  const size_t n = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+  if (n == 0 || i + n > s.size()) return 0;
+  for (size_t k = 1; k < n; ++k)
+    if ((b(i + k) & 0xC0) != 0x80) return 0;
+  const unsigned char d = b(i + 1);
+  if ((c == 0xE0 && d < 0xA0) || (c == 0xED && d > 0x9F) || (c == 0xF0 && d < 0x90) || (c == 0xF4 && d > 0x8F)) return 0;
+  return n;
+}
+}  // namespace
+
 std::string json_string(const std::string& s) {
+  // JSON text is Unicode (RFC 8259, section 8.1): a byte that is not part of
+  // well-formed UTF-8 (a file name in another encoding) becomes U+FFFD.
   std::string o = "\"";
-  for (unsigned char c : s) {
+  for (size_t i = 0; i < s.size();) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    const size_t n = utf8_length(s, i);
+    if (n == 0) { o += "\\ufffd"; ++i; continue; }
+    if (n > 1) { o.append(s, i, n); i += n; continue; }
     if (c == '"' || c == '\\') { o += '\\'; o += static_cast<char>(c); }
     else if (c == '\n') o += "\\n";
     else if (c == '\t') o += "\\t";
-    else if (c < 0x20) { char b[8]; std::snprintf(b, sizeof b, "\\u%04x", c); o += b; }
+    else if (c < 0x20 || c == 0x7F) { char b[8]; std::snprintf(b, sizeof b, "\\u%04x", c); o += b; }
     else o += static_cast<char>(c);
+    ++i;
   }
   return o + "\"";
 }

@@ -52,8 +52,21 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
                                      const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err) {
   using R = ImproveArgsResult;
   const std::string cmd = names.command + ": ";
+  bool options_end = false;  // after "--": file names only (one may start with '-')
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& o = args[i];
+    if (!options_end && o == "--") {
+      options_end = true;
+      continue;
+    }
+    if (options_end) {
+      if (a.in.empty()) a.in = o;
+      else {
+        err = cmd + "unexpected argument '" + o + "' (after --, only IN; give -o before --)";
+        return R::Error;
+      }
+      continue;
+    }
     std::string v;
     auto value = [&] {
       if (i + 1 >= args.size()) {
@@ -153,6 +166,13 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
   if (a.in.empty() || a.out.empty()) {
     err = cmd + (a.in.empty() ? "no input mesh" : "no output (-o OUT)");
     return R::ErrorWithHelp;
+  }
+  if ((a.opt.allow_insert || a.opt.allow_remove) && a.opt.mode != ImproveMode::Best) {
+    err = cmd;
+    err += a.opt.allow_insert ? "--allow-insert" : "--allow-remove";
+    err += " works in --mode best only (the default), not in --mode ";
+    err += mode_name(a.opt.mode);
+    return R::Error;
   }
   if (format_from_path(a.out) == Format::Unknown) {
     err = cmd + a.out + ": unknown output extension";

@@ -163,6 +163,12 @@ check "convert to a TetGen set whose .face is a folder: exit 4, no .node or .ele
   '[ $rc -eq 4 ] && [ ! -e "$W/tgd.node" ] && [ ! -e "$W/tgd.ele" ] && grep -q "tgd.face" "$W/tg.err"'
 # What OUT's format cannot hold is named in a warning and in the report.
 printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n5\n0 0 0 1\n1 0 0 2\n0 1 0 0\n0 0 1 0\n1 1 1 7\nTetrahedra\n2\n1 2 3 4 1\n2 3 4 5 2\nRequiredVertices\n1\n2\nEnd\n' > "$W/vr.mesh"
+# Options that would do nothing are refused; "--" ends the options.
+"$T" improve "$W/vr.mesh" -o "$W/ai.mesh" --mode smooth --allow-insert 2> "$W/ai.err"; rc=$?
+check "--allow-insert outside mode best: exit 1, says so" '[ $rc -eq 1 ] && grep -q "works in --mode best only" "$W/ai.err" && [ ! -e "$W/ai.mesh" ]'
+cp "$W/vr.mesh" "$W/-dash.mesh"
+(cd "$W" && "$T" improve -o dash_out.mesh -q -- -dash.mesh); rc=$?
+check "-- ends the options: an input named -dash.mesh" '[ $rc -eq 0 ] && [ -s "$W/dash_out.mesh" ]'
 "$T" convert "$W/vr.mesh" "$W/vr.msh" 2> "$W/vr.err"; rc=$?
 check "convert to .msh warns of the vertex refs and required vertices it leaves out" \
   '[ $rc -eq 0 ] && grep -q "vr.msh: this format cannot hold the input.s vertex refs (3 nonzero) and required vertices (1)" "$W/vr.err"'

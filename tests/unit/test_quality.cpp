@@ -6,6 +6,7 @@
 
 #include "tetopt/generate.hpp"
 #include "tetopt/quality.hpp"
+#include "tetopt/report.hpp"
 
 using namespace tetopt;
 
@@ -162,4 +163,16 @@ TEST(Quality, StatsAreThePerTetMeasuresExactly) {
     EXPECT_NEAR(s.dihedral_min, dmin, 1e-9);
     EXPECT_NEAR(s.dihedral_max, dmax, 1e-9);
   }
+}
+
+TEST(Report, JsonStringIsValidJsonForAnyBytes) {
+  EXPECT_EQ(json_string("a\"b\\c\nd\te"), "\"a\\\"b\\\\c\\nd\\te\"");
+  EXPECT_EQ(json_string(std::string("x\x01y\x7f", 4)), "\"x\\u0001y\\u007f\"");
+  // Well-formed UTF-8 passes as it is; other bytes (a Latin-1 file name,
+  // a truncated sequence, an overlong form, a surrogate) become U+FFFD.
+  EXPECT_EQ(json_string("d\xC3\xA9j\xC3\xA0 \xE2\x82\xAC \xF0\x9F\x98\x80"), "\"d\xC3\xA9j\xC3\xA0 \xE2\x82\xAC \xF0\x9F\x98\x80\"");
+  EXPECT_EQ(json_string("x\xff\xfe.mesh"), "\"x\\ufffd\\ufffd.mesh\"");
+  EXPECT_EQ(json_string("a\xC3"), "\"a\\ufffd\"");
+  EXPECT_EQ(json_string("\xC0\xAF"), "\"\\ufffd\\ufffd\"");
+  EXPECT_EQ(json_string("\xED\xA0\x80"), "\"\\ufffd\\ufffd\\ufffd\"");
 }
