@@ -279,3 +279,11 @@ def test_ctrl_c_interrupts_improve(cli, tmp_path):
         pytest.skip("improve finished before the signal arrived")
     assert proc.returncode == 0, (proc.returncode, err)
     assert out.split() == ["interrupted", str(6 * 16**3)], (out, err)
+
+
+def test_allow_insert_outside_mode_best_is_refused():
+    # As on the command line: the option would do nothing there.
+    with pytest.raises(ValueError, match=r"allow_insert works in mode 'best' only"):
+        tetopt.improve(P, T, mode="smooth", allow_insert=True)
+    with pytest.raises(ValueError, match=r"allow_remove works in mode 'best' only"):
+        tetopt.improve(P, T, mode="combined", allow_remove=True)

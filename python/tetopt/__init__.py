@@ -166,6 +166,8 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
         if not isinstance(value, (bool, np.bool_)):
             raise ValueError(f"{name}: expected a bool, got {value!r}")
         setattr(o, name, bool(value))
+        if value and mode != "best":
+            raise ValueError(f"{name} works in mode 'best' only (the default), not in mode {mode!r}")
     return o
 
 
