@@ -49,6 +49,15 @@ std::string shorten(std::string_view t) {
   return s;
 }
 
+// A DataArray as an error message names it: 'name', or (unnamed).
+std::string array_label(const std::string& name) {
+  if (name.empty()) return "(unnamed)";
+  std::string s = "'";
+  s += shorten(name);
+  s += '\'';
+  return s;
+}
+
 std::string upper(std::string_view t) {
   std::string s(t);
   for (char& ch : s) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
@@ -891,7 +900,10 @@ class VtuReader {
         int64_t np = 0, nc = 0;
         if (!gvscan::parse_int(attr(attrs, "NumberOfPoints"), np) || !gvscan::parse_int(attr(attrs, "NumberOfCells"), nc) ||
             np < 0 || nc < 0)
-          return fail(ErrorCode::Parse, "<Piece> needs NumberOfPoints and NumberOfCells", lt);
+          return fail(ErrorCode::Parse,
+                      "<Piece> needs NumberOfPoints and NumberOfCells, whole numbers from 0 on (found '" +
+                          shorten(attr(attrs, "NumberOfPoints")) + "' and '" + shorten(attr(attrs, "NumberOfCells")) + "')",
+                      lt);
         if (static_cast<uint64_t>(np) > s_.size() || static_cast<uint64_t>(nc) > s_.size())
           return fail(ErrorCode::Parse, "NumberOfPoints / NumberOfCells exceed what the file can hold", lt);
         npoints_ = np;
@@ -956,30 +968,30 @@ class VtuReader {
       return bytes % vbytes != 0 || bytes / vbytes != static_cast<uint64_t>(count);
     };
     auto size_error = [&](uint64_t bytes) {
-      return fail(ErrorCode::Parse, "DataArray " + d.name + " holds " + std::to_string(bytes / vbytes) +
+      return fail(ErrorCode::Parse, "DataArray " + array_label(d.name) + " holds " + std::to_string(bytes / vbytes) +
                                         " values instead of " + std::to_string(count), d.tag_pos);
     };
     if (!compressed_) {
-      if (n < hb) return fail(ErrorCode::Parse, "truncated binary header of " + d.name, d.tag_pos);
+      if (n < hb) return fail(ErrorCode::Parse, "truncated binary header of " + array_label(d.name), d.tag_pos);
       const uint64_t len = header_word(p);
       if (len > n - hb)
-        return fail(ErrorCode::Parse, "binary array " + d.name + " claims " + std::to_string(len) + " bytes but " +
+        return fail(ErrorCode::Parse, "binary array " + array_label(d.name) + " claims " + std::to_string(len) + " bytes but " +
                                           std::to_string(n - hb) + " remain (truncated file?)", d.tag_pos);
       if (wrong_size(len)) return size_error(len);
       raw.assign(p + hb, static_cast<size_t>(len));
       return Status::success();
     }
 #ifdef TETOPT_VTK_ZLIB
-    if (n < 3 * hb) return fail(ErrorCode::Parse, "truncated compression header of " + d.name, d.tag_pos);
+    if (n < 3 * hb) return fail(ErrorCode::Parse, "truncated compression header of " + array_label(d.name), d.tag_pos);
     const uint64_t nb = header_word(p), bs = header_word(p + hb), last = header_word(p + 2 * hb);
-    if (nb > (n - 3 * hb) / hb) return fail(ErrorCode::Parse, "absurd block count in " + d.name, d.tag_pos);
+    if (nb > (n - 3 * hb) / hb) return fail(ErrorCode::Parse, "absurd block count in " + array_label(d.name), d.tag_pos);
     size_t at = (3 + static_cast<size_t>(nb)) * hb;
     uint64_t total_c = 0;
     for (uint64_t b = 0; b < nb; ++b) total_c += header_word(p + (3 + b) * hb);
-    if (total_c > n - at) return fail(ErrorCode::Parse, "truncated compressed data of " + d.name, d.tag_pos);
+    if (total_c > n - at) return fail(ErrorCode::Parse, "truncated compressed data of " + array_label(d.name), d.tag_pos);
     const uint64_t total = nb == 0 ? 0 : (nb - 1) * bs + (last == 0 ? bs : last);
     // zlib cannot expand more than about 1032:1; a larger claim is a lie.
-    if (total > 1100 * (total_c + 64)) return fail(ErrorCode::Parse, "absurd uncompressed size in " + d.name, d.tag_pos);
+    if (total > 1100 * (total_c + 64)) return fail(ErrorCode::Parse, "absurd uncompressed size in " + array_label(d.name), d.tag_pos);
     if (wrong_size(total)) return size_error(total);
     raw.resize(static_cast<size_t>(total));
     size_t out_at = 0;
@@ -990,7 +1002,7 @@ class VtuReader {
       if (uncompress(reinterpret_cast<Bytef*>(raw.data() + out_at), &want, reinterpret_cast<const Bytef*>(p + at),
                      static_cast<uLong>(cs)) != Z_OK ||
           want != expect)
-        return fail(ErrorCode::Parse, "corrupt zlib block " + std::to_string(b) + " in " + d.name, d.tag_pos);
+        return fail(ErrorCode::Parse, "corrupt zlib block " + std::to_string(b) + " in " + array_label(d.name), d.tag_pos);
       at += static_cast<size_t>(cs);
       out_at += static_cast<size_t>(want);
     }
@@ -1019,7 +1031,7 @@ class VtuReader {
       c.pos = d.content_begin;
       c.line = line_at(d.content_begin);
       if (static_cast<uint64_t>(count) > (d.content_end - d.content_begin) / 2 + 1)
-        return fail(ErrorCode::Parse, "DataArray " + d.name + " holds fewer than the " + std::to_string(count) +
+        return fail(ErrorCode::Parse, "DataArray " + array_label(d.name) + " holds fewer than the " + std::to_string(count) +
                                           " values it needs", d.tag_pos);
       a.values.resize(static_cast<size_t>(count));
       for (size_t i = 0; i < a.values.size(); ++i) {
@@ -1033,14 +1045,14 @@ class VtuReader {
           ok = t.is_float32 ? gvscan::parse_float32(tok, a.values[i]) : gvscan::parse_double(tok, a.values[i]);
         }
         if (!ok) {
-          const std::string what = tok.empty() ? "DataArray " + d.name + " ends after " + std::to_string(i) + " of " +
+          const std::string what = tok.empty() ? "DataArray " + array_label(d.name) + " ends after " + std::to_string(i) + " of " +
                                                      std::to_string(count) + " values"
-                                               : "bad value '" + shorten(tok) + "' in DataArray " + d.name;
+                                               : "bad value '" + shorten(tok) + "' in DataArray " + array_label(d.name);
           return Status::error(ErrorCode::Parse, name_ + ":" + std::to_string(c.line) + ": " + what, c.line);
         }
       }
       if (!c.token().empty())
-        return fail(ErrorCode::Parse, "DataArray " + d.name + " holds more than the " + std::to_string(count) +
+        return fail(ErrorCode::Parse, "DataArray " + array_label(d.name) + " holds more than the " + std::to_string(count) +
                                           " values it should", d.tag_pos);
       return Status::success();
     }
@@ -1048,21 +1060,21 @@ class VtuReader {
     if (d.format == "binary") {
       std::string bytes;
       if (!gvscan::base64_decode(s_.substr(d.content_begin, d.content_end - d.content_begin), bytes))
-        return fail(ErrorCode::Parse, "bad base64 in DataArray " + d.name, d.tag_pos);
+        return fail(ErrorCode::Parse, "bad base64 in DataArray " + array_label(d.name), d.tag_pos);
       if (Status st = payload(d, bytes.data(), bytes.size(), count, static_cast<size_t>(t.bytes), raw); !st) return st;
     } else if (d.format == "appended") {
       if (appended_ == std::string_view::npos || d.offset < 0)
-        return fail(ErrorCode::Parse, "appended DataArray " + d.name + " without AppendedData or offset", d.tag_pos);
+        return fail(ErrorCode::Parse, "appended DataArray " + array_label(d.name) + " without AppendedData or offset", d.tag_pos);
       const size_t start = appended_ + static_cast<size_t>(d.offset);
       if (start > appended_end_)
-        return fail(ErrorCode::Parse, "offset of DataArray " + d.name + " is past the appended data", d.tag_pos);
+        return fail(ErrorCode::Parse, "offset of DataArray " + array_label(d.name) + " is past the appended data", d.tag_pos);
       if (appended_base64_) {
         size_t stop = appended_end_;
         for (const DataArrayInfo& o : arrays_)
           if (o.format == "appended" && o.offset > d.offset) stop = std::min(stop, appended_ + static_cast<size_t>(o.offset));
         std::string bytes;
         if (!gvscan::base64_decode(s_.substr(start, stop - start), bytes))
-          return fail(ErrorCode::Parse, "bad base64 in appended DataArray " + d.name, d.tag_pos);
+          return fail(ErrorCode::Parse, "bad base64 in appended DataArray " + array_label(d.name), d.tag_pos);
         if (Status st = payload(d, bytes.data(), bytes.size(), count, static_cast<size_t>(t.bytes), raw); !st) return st;
       } else {
         if (Status st = payload(d, s_.data() + start, appended_end_ - start, count, static_cast<size_t>(t.bytes), raw); !st) return st;
