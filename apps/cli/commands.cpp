@@ -184,31 +184,12 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std
   struct stat st {};
   if (stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && heap_serves(static_cast<size_t>(st.st_size) / 2))
     prefault_heap(static_cast<size_t>(st.st_size), threads);
-  Status s = read_input(path, m, &orient, threads);
-  if (!s) {
-    if (progress) std::fputs("\033[K", stderr);
-    std::fprintf(stderr, "tetopt: %s\n", s.message.c_str());
-    return false;
-  }
-  if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
-  s = check_measurable(m, "", threads);
-  const bool sort = s && order && tetopt_cli::worth_sorting(m, orient, reorder_above, threads);
-  if (sort) sort_tets_spatially(m, threads, order);
-  if (s) s = build_topology(m, threads);
-  if (s) s = orient_consistently(m, false, &orient, threads);
-  if (!s && sort) {
-    // A topology error names tets by their number in IN: read IN again and
-    // fail on its own order (only on this error path).
-    order->clear();
-    m = TetMesh{};
-    orient = OrientationReport{};
-    s = read_input(path, m, &orient, threads);
-    if (s) s = build_topology(m, threads);
-    if (s) s = orient_consistently(m, false, &orient, threads);
-  }
+  const Status s = load_for_improve(path, m, orient, threads, reorder_above, order, read_input, [&] {
+    if (progress) std::fprintf(stderr, "building topology of %d tets ...\033[K\r", m.nt());
+  });
   if (progress) std::fputs("\033[K", stderr);
   if (!s) {
-    std::fprintf(stderr, "tetopt: %s: %s\n", path.c_str(), s.message.c_str());
+    std::fprintf(stderr, "tetopt: %s\n", s.message.c_str());
     return false;
   }
   if (!quiet && orient.flipped)

@@ -48,6 +48,34 @@ bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& or
          tetopt::tet_order_spread(m, threads) > kSortSpread;
 }
 
+tetopt::Status load_for_improve(const std::string& path, tetopt::TetMesh& m, tetopt::OrientationReport& orient,
+                                int threads, int64_t reorder_above, std::vector<int32_t>* order,
+                                const MeshReader& read, const std::function<void()>& on_read) {
+  using tetopt::Status;
+  if (order) order->clear();
+  orient = tetopt::OrientationReport{};
+  Status s = read(path, m, &orient, threads);
+  if (!s) return s;  // the reader's messages name the file already
+  if (on_read) on_read();
+  s = tetopt::check_measurable(m, "", threads);
+  const bool sort = s && order && worth_sorting(m, orient, reorder_above, threads);
+  if (sort) tetopt::sort_tets_spatially(m, threads, order);
+  if (s) s = tetopt::build_topology(m, threads);
+  if (s) s = tetopt::orient_consistently(m, false, &orient, threads);
+  if (!s && sort) {
+    // Only on this error path: IN again, in its own order.
+    order->clear();
+    m = tetopt::TetMesh{};
+    orient = tetopt::OrientationReport{};
+    s = read(path, m, &orient, threads);
+    if (!s) return s;
+    s = tetopt::build_topology(m, threads);
+    if (s) s = tetopt::orient_consistently(m, false, &orient, threads);
+  }
+  if (!s) s.message = path + ": " + s.message;
+  return s;
+}
+
 ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,
                                      const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err) {
   using R = ImproveArgsResult;

@@ -78,6 +78,21 @@ inline constexpr double kSortSpread = 8.0;
 bool worth_sorting(const tetopt::TetMesh& m, const tetopt::OrientationReport& orient, int64_t reorder_above,
                    int threads);
 
+/// A mesh reader: read_mesh, or the command line tool's read_input.
+using MeshReader = std::function<tetopt::Status(const std::string&, tetopt::TetMesh&, tetopt::OrientationReport*, int)>;
+
+/// Reads IN for measuring or improving, as tetopt and tetopt-mpi do: read,
+/// check_measurable, Morton order when `order` is given and worth_sorting
+/// (order[id] = the tet's id in IN), build_topology, orient_consistently.
+/// A topology error after the reorder is reproduced on IN's own order (IN
+/// is read again), so that its message names tets by their number in IN.
+/// The reader's errors come as they are (they name the file), later ones
+/// with "IN: " in front.  on_read (optional) runs after the read succeeded
+/// (a progress line).
+tetopt::Status load_for_improve(const std::string& path, tetopt::TetMesh& m, tetopt::OrientationReport& orient,
+                                int threads, int64_t reorder_above, std::vector<int32_t>* order,
+                                const MeshReader& read, const std::function<void()>& on_read = {});
+
 /// Parses args (the words after "improve").  Stops at the first error.
 ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const ImproveArgsNames& names,
                                      const std::vector<ExtraOption>& extra, ImproveArgs& a, std::string& err);

@@ -424,27 +424,13 @@ int leader(const Args& a, int size) {
   // names tets by their number in IN, so a failure after the sort is
   // reproduced on IN's order for its message.
   std::vector<int32_t> order;  // order[id] = id in IN, when the tets were put in Morton order
-  auto load = [&](bool sort, bool& sorted) {
-    OrientationReport orient;
-    sorted = false;
-    order.clear();
-    Status st = read_mesh(a.in, g, &orient, kRank0Threads);
-    if (!st) return st;  // the reader's messages name the file already
-    st = check_measurable(g, "", kRank0Threads);
-    if (st && sort && tetopt_cli::worth_sorting(g, orient, a.keep_order ? -1 : a.reorder_above, kRank0Threads)) {
-      sort_tets_spatially(g, kRank0Threads, &order);
-      sorted = true;
-    }
-    if (st) st = build_topology(g, kRank0Threads);
-    if (st) st = orient_consistently(g, false, &orient, kRank0Threads);
-    if (!st) st.message = a.in + ": " + st.message;
-    return st;
-  };
-  bool sorted = false;
-  Status s = load(true, sorted);
-  if (!s && sorted) s = load(false, sorted);
+  OrientationReport orient;
+  Status s = tetopt_cli::load_for_improve(a.in, g, orient, kRank0Threads, a.keep_order ? -1 : a.reorder_above, &order,
+                                          [](const std::string& p, TetMesh& m, OrientationReport* o, int t) {
+                                            return read_mesh(p, m, o, t);
+                                          });
   if (!s) return give_up(s.message, kExitInput);
-  if (a.verbose && sorted)
+  if (a.verbose && !order.empty())
     std::fprintf(stderr, "tets put in Morton order of their centroids (IN's order is scattered; --keep-order keeps it)\n");
   const double t_read = now() - t_start;
   const std::vector<std::string> dropped = tetopt_cli::warn_dropped(a.out, g, a.wo, a.quiet);

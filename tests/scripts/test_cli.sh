@@ -242,6 +242,21 @@ check "scattered mesh, --keep-order (before --reorder-above): not reordered" '[ 
 check "scattered mesh below the default threshold: not reordered" '[ "$(field "$W/scd.json" "d[\"tets_reordered\"]")" = False ]'
 "$T" improve "$W/big.mesh" -o "$W/bigo.mesh" --mode smooth --iterations 1 --reorder-above 90000 --report "$W/bigo.json" -q
 check "the same box in order: not reordered" '[ "$(field "$W/bigo.json" "d[\"tets_reordered\"]")" = False ]'
+# A topology error found after the reorder names tets by their number in IN:
+# the same message as without reordering (a tet of the shuffled box repeated
+# at the end of its list).
+/usr/bin/python3 - "$W/scattered.mesh" "$W/dup.mesh" <<'PY'
+import sys
+lines = open(sys.argv[1]).read().split("\n")
+i = lines.index("Tetrahedra"); n = int(lines[i + 1])
+lines[i + 1] = str(n + 1)
+lines.insert(i + 2 + n, lines[i + 2 + 500])
+open(sys.argv[2], "w").write("\n".join(lines))
+PY
+"$T" improve "$W/dup.mesh" -o "$W/dup_out.mesh" --reorder-above 90000 -q 2> "$W/dup_r.err"; rc=$?
+"$T" improve "$W/dup.mesh" -o "$W/dup_out.mesh" --keep-order -q 2> "$W/dup_k.err"
+check "topology error after the reorder: exit 2, tets named as in IN (same message as --keep-order)" \
+  '[ $rc -eq 2 ] && [ -s "$W/dup_r.err" ] && cmp -s "$W/dup_r.err" "$W/dup_k.err" && grep -q "501" "$W/dup_r.err" && [ ! -e "$W/dup_out.mesh" ]'
 if [ -f "$MC" ] && /usr/bin/python3 -c "import meshio" 2>/dev/null; then
   /usr/bin/python3 "$MC" compare "$W/scattered.mesh" "$W/sc1.mesh" > "$W/mc_sc" 2>&1
   check "referee accepts the reordered result" '[ $? -eq 0 ]'
