@@ -1,6 +1,8 @@
 // Private helpers shared by the format readers and writers.
 #pragma once
 #include <cstdint>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "tetopt/conventions.hpp"
@@ -8,6 +10,21 @@
 #include "tetopt/mesh.hpp"
 
 namespace tetopt::detail {
+
+/// A token as a reader's error message shows it: at most 40 bytes, then
+/// "..."; control bytes (a NUL cut a message short) as '?', and with
+/// ascii_only every byte past '~' too (the Gmsh and VTK readers, whose
+/// binary sections would otherwise print raw bytes); Medit and TetGen keep
+/// UTF-8 text.
+inline std::string shown_token(std::string_view t, bool ascii_only) {
+  std::string s(t.substr(0, 40));
+  for (char& ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 32 || c == 127 || (ascii_only && c > 126)) ch = '?';
+  }
+  if (t.size() > 40) s += "...";
+  return s;
+}
 
 /// Whether a writer of format `target` must swap kFlipA/kFlipB: to restore
 /// the source file's own convention when writing the same format family

@@ -67,13 +67,7 @@ int supported_nodes(int64_t t) {
   }
 }
 
-std::string shorten(std::string_view t) {
-  std::string s(t.substr(0, 40));
-  for (char& ch : s)
-    if (static_cast<unsigned char>(ch) < 32 || static_cast<unsigned char>(ch) > 126) ch = '?';
-  if (t.size() > 40) s += "...";
-  return s;
-}
+std::string shorten(std::string_view t) { return detail::shown_token(t, true); }
 
 class GmshReader {
  public:

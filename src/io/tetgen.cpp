@@ -46,15 +46,7 @@ constexpr int64_t kMaxId = std::numeric_limits<int32_t>::max();
 
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v' || c == ','; }
 
-// A token as an error message shows it: at most 40 bytes, control bytes (a
-// NUL cut the message short) as '?'; UTF-8 text is kept.
-std::string shorten(std::string_view t) {
-  std::string s(t.substr(0, 40));
-  for (char& ch : s)
-    if (static_cast<unsigned char>(ch) < 32 || ch == 127) ch = '?';
-  if (t.size() > 40) s += "...";
-  return s;
-}
+std::string shorten(std::string_view t) { return detail::shown_token(t, false); }
 
 /// Non-empty lines with '#' comments removed, split into tokens.
 class LineReader {

@@ -41,13 +41,7 @@ namespace {
 
 using gvscan::Cursor;
 
-std::string shorten(std::string_view t) {
-  std::string s(t.substr(0, 40));
-  for (char& ch : s)
-    if (static_cast<unsigned char>(ch) < 32 || static_cast<unsigned char>(ch) > 126) ch = '?';
-  if (t.size() > 40) s += "...";
-  return s;
-}
+std::string shorten(std::string_view t) { return detail::shown_token(t, true); }
 
 // A DataArray as an error message names it: 'name', or (unnamed).
 std::string array_label(const std::string& name) {

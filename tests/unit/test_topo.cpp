@@ -586,11 +586,7 @@ TEST(Topo, PassesWithoutStarRebuildLeaveStarsEmptyAndTheirReadersBuildThem) {
   // returns the stars built.
   for (int regions : {1, 2}) {
     SCOPED_TRACE(regions);
-    BoxMeshOptions bo;
-    bo.nx = 5; bo.ny = 5; bo.nz = 4;
-    bo.jitter = 0.45;
-    bo.seed = 7;
-    bo.regions = regions;
+    const BoxMeshOptions bo{.nx = 5, .ny = 5, .nz = 4, .jitter = 0.45, .seed = 7, .regions = regions};
     TetMesh a = make_box_mesh(bo);
     ASSERT_TRUE(build_topology(a).ok());
     TetMesh b = a;
