@@ -122,6 +122,16 @@ TetMesh make_shell(int n, double R, double h) {
   for (int i = 0; i < n; ++i) t.push_back({0, 1, 2 + i, 2 + (i + 1) % n});
   return make_mesh(ring_points(n, R, h), t);
 }
+// The ring of ring_points(n, 1, 0.6) triangulated as a fan from vertex 2 and
+// sandwiched between a and b: 2 (n - 2) tets, the reverse of a shell.
+TetMesh make_fan_sandwich(int n) {
+  std::vector<std::array<int32_t, 4>> tets;
+  for (int k = 1; k + 1 < n; ++k) {
+    tets.push_back({2, 2 + k, 2 + k + 1, 1});
+    tets.push_back({2, 2 + k + 1, 2 + k, 0});
+  }
+  return make_mesh(ring_points(n, 1.0, 0.6), tets);
+}
 
 // Finds tet and local edge of edge (a, b).
 bool find_edge(const TetMesh& m, int32_t a, int32_t b, int32_t& t, int& le) {
@@ -330,13 +340,8 @@ TEST(Topo, MultiFaceRemovalInvertsEdgeRemoval) {
   // Fan triangulation of a 5-ring sandwiched between a and b; the 5 tets
   // around ab are much better (see EdgeRemoval tests for the reverse case).
   const int n = 5;
-  auto p = ring_points(n, 1.0, 0.6);
-  std::vector<std::array<int32_t, 4>> tets;
-  for (int k = 1; k + 1 < n; ++k) {
-    tets.push_back({2, 2 + k, 2 + k + 1, 1});
-    tets.push_back({2, 2 + k + 1, 2 + k, 0});
-  }
-  TetMesh m = make_mesh(p, tets);
+  const auto p = ring_points(n, 1.0, 0.6);
+  TetMesh m = make_fan_sandwich(n);
   const Snapshot s = snap(m);
   double shell = 2;
   for (int i = 0; i < n; ++i) shell = std::min(shell, alpha_pts(p, 0, 1, 2 + i, 2 + (i + 1) % n));
@@ -359,13 +364,7 @@ TEST(Topo, MultiFaceRemovalKeepsAListedEdge) {
   // command line, with meshcheck none the wiser); the removal may take only
   // faces on one side of it, and the edge stays an edge of the mesh.
   const int n = 5;
-  auto p = ring_points(n, 1.0, 0.6);
-  std::vector<std::array<int32_t, 4>> tets;
-  for (int k = 1; k + 1 < n; ++k) {
-    tets.push_back({2, 2 + k, 2 + k + 1, 1});
-    tets.push_back({2, 2 + k + 1, 2 + k, 0});
-  }
-  TetMesh m = make_mesh(p, tets);
+  TetMesh m = make_fan_sandwich(n);
   TetMesh unlisted = m;
   m.edges = {4, 2, 0, 1};  // (0, 1) is no edge of the mesh yet: nothing to keep
   m.edge_ref = {9, 8};
