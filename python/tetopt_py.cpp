@@ -604,7 +604,9 @@ py::tuple read_file(const py::handle& path) {
   return py::make_tuple(mesh_to_dict(std::move(m)), vec(std::move(orient.inverted)), vec(std::move(orient.flat_tets)));
 }
 
-void write_file(const py::handle& path, const py::dict& d, int msh_version, bool binary, int meshb_version) {
+/// Writes the mesh; returns what the format cannot hold and left out
+/// (tetopt::dropped_by_format), for the Python side's warning.
+py::list write_file(const py::handle& path, const py::dict& d, int msh_version, bool binary, int meshb_version) {
   const std::string p = path_str(path);
   if (tetopt::format_from_path(p) == tetopt::Format::Unknown)
     throw py::value_error(p + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
@@ -617,12 +619,16 @@ void write_file(const py::handle& path, const py::dict& d, int msh_version, bool
   wo.msh_version = msh_version;
   wo.binary = binary;
   wo.meditb_version = meshb_version;
+  const std::vector<std::string> lost = tetopt::dropped_by_format(m, tetopt::format_from_path(p), wo);
   Status s;
   {
     py::gil_scoped_release nogil;
     s = tetopt::write_mesh(p, m, wo);
   }
   throw_status(s);
+  py::list out;
+  for (const std::string& x : lost) out.append(x);
+  return out;
 }
 
 }  // namespace

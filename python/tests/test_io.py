@@ -95,3 +95,18 @@ def test_paths_may_be_pathlike_or_str(box, tmp_path):
     assert np.array_equal(a.tets, b.tets)
     tetopt.write(str(tmp_path / "s.mesh"), a)
     assert (tmp_path / "s.mesh").read_bytes() == box.read_bytes()
+
+
+def test_write_warns_of_what_the_format_cannot_hold(rich, tmp_path):
+    # As tetopt convert: the .msh file cannot hold the vertex refs, the
+    # required vertices and the ridges; .mesh holds all but the group names.
+    with pytest.warns(UserWarning, match=r"a\.msh: this format cannot hold the mesh's vertex refs \(\d+ nonzero\)"):
+        tetopt.write(tmp_path / "a.msh", rich)
+    with pytest.warns(UserWarning, match=r"physical names \(3\)") as rec:
+        tetopt.write(tmp_path / "a.mesh", rich)
+    assert "vertex refs" not in str(rec[0].message)
+    plain = tetopt.read(tmp_path / "a.mesh")
+    plain.groups = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tetopt.write(tmp_path / "b.mesh", plain)

@@ -391,7 +391,10 @@ def write(path: PathLike, mesh: Any, *, msh_version: int = 41, binary: bool = Fa
     convention (see ``Mesh.flipped_on_read``); coordinates with 17
     significant digits (or raw doubles), so they read back bit-identical.
     The file is written to a temporary name and renamed, so a failure never
-    leaves half a file.
+    leaves half a file.  What the format cannot hold (vertex refs in .msh,
+    .vtk and .vtu, required entities outside Medit, listed edges in TetGen,
+    ...; docs/formats.md, "What is kept") is left out with a UserWarning
+    naming it, as ``tetopt convert`` does.
 
     Args:
         msh_version: 22 or 41 for .msh.
@@ -408,7 +411,10 @@ def write(path: PathLike, mesh: Any, *, msh_version: int = 41, binary: bool = Fa
     for name, value in (("msh_version", msh_version), ("meshb_version", meshb_version)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
             raise ValueError(f"{name}: expected an int, got {value!r}")
-    _tetopt.write(path, mesh._as_dict(), int(msh_version), bool(binary), int(meshb_version))
+    lost = _tetopt.write(path, mesh._as_dict(), int(msh_version), bool(binary), int(meshb_version))
+    if lost:
+        warnings.warn(f"{os.fspath(path)}: this format cannot hold the mesh's {', '.join(lost)}: left out "
+                      "(docs/formats.md, 'What is kept')", UserWarning, stacklevel=2)
 
 
 # ---------------------------------------------------------------- meshio
