@@ -200,10 +200,13 @@ Status write_files_atomic(const std::vector<std::pair<std::string, std::string_v
   auto drop = [&](size_t from) {
     for (size_t k = from; k < tmps.size(); ++k) std::remove(tmps[k].c_str());
   };
-  for (const auto& [path, bytes] : files) {
+  for (const auto& file : files) {
+    // (no structured binding: clang 14, the fuzz build's compiler, cannot
+    // capture one in a lambda)
+    const std::string_view bytes = file.second;
     std::string tmp, target;
     const Status s = write_temp(
-        path, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); }, tmp, target);
+        file.first, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); }, tmp, target);
     if (!s) {
       drop(0);
       return s;
