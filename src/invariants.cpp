@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "detail/edge_key.hpp"
 #include "detail/parallel.hpp"
 #include "tetopt/predicates.hpp"
 
@@ -63,10 +64,7 @@ std::vector<int32_t> listed_edges_in_mesh(const TetMesh& m, int threads) {
   std::vector<uint8_t> end(static_cast<size_t>(m.nv()), 0);
   for (int32_t v : m.edges)
     if (v >= 0 && v < m.nv()) end[v] = 1;
-  auto key = [](int32_t a, int32_t b) {
-    if (a > b) std::swap(a, b);
-    return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b);
-  };
+  const auto key = detail::edge_key;
   std::vector<std::pair<uint64_t, int32_t>> keys(ne);
   for (size_t i = 0; i < ne; ++i) keys[i] = {key(m.edges[2 * i], m.edges[2 * i + 1]), static_cast<int32_t>(i)};
   std::sort(keys.begin(), keys.end());

@@ -120,6 +120,12 @@ std::string json_string(const std::string& s) {
   return o + "\"";
 }
 
+std::string json_string_list(const std::vector<std::string>& v) {
+  std::string o = "[";
+  for (size_t i = 0; i < v.size(); ++i) o += (i ? ", " : "") + json_string(v[i]);
+  return o + "]";
+}
+
 namespace {
 // RFC 4648 base64.
 std::string base64(const unsigned char* p, size_t n) {

@@ -25,6 +25,7 @@
 
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
+#include "detail/edge_key.hpp"
 #include "detail/parallel.hpp"
 #include "detail/vec3.hpp"
 
@@ -43,10 +44,7 @@ constexpr int kInsertMax = 2 * kMaxShell;   // insert_vertex: cavity tets and ou
 static_assert(kMaxOld >= 2 * kMaxShell, "an edge shell or sandwich must fit a cavity");
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-uint64_t edge_key(int32_t a, int32_t b) {
-  if (a > b) std::swap(a, b);
-  return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) | static_cast<uint32_t>(b);
-}
+using detail::edge_key;
 
 // Rotates a triangle so its smallest vertex comes first (keeps orientation).
 void canonical(const int32_t in[3], int32_t out[3]) {

@@ -187,15 +187,12 @@ int cmd_improve(const std::vector<std::string>& args) {
   }
   if (!report_path.empty()) {
     std::string js = report_to_json(rep, opt, in, out);
-    std::string dropped_json = "[";
-    for (size_t i = 0; i < dropped.size(); ++i) dropped_json += (i ? ", " : "") + json_string(dropped[i]);
-    dropped_json += "]";
     std::string dj = diagnosis_to_json(diag, 1000, 2);
     for (size_t p = dj.find('\n'); p != std::string::npos; p = dj.find('\n', p + 3)) dj.replace(p, 1, "\n  ");
     const size_t close = js.rfind('}');
     js.insert(close > 0 && js[close - 1] == '\n' ? close - 1 : close, ",\n  \"seconds_end_to_end\": " + std::to_string(total) +
                   ",\n  \"tets_reordered\": " + (order.empty() ? "false" : "true") + ",\n  \"dropped_on_write\": " +
-                  dropped_json + ",\n  \"diagnosis\": " + dj);
+                  json_string_list(dropped) + ",\n  \"diagnosis\": " + dj);
     s = write_file_atomic(report_path, js);
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
   }

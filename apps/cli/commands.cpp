@@ -129,15 +129,9 @@ bool same_file(const std::string& a, const std::string& b) {
 }  // namespace
 
 namespace {
-// The files a mesh path reads or writes: a TetGen name stands for its .node,
-// .ele and .face (the .face of an input may not exist).  Reports and field
+// The files a path reads or writes: mesh_files for a mesh; reports and field
 // files are one file whatever their extension (mesh = false).
-std::vector<std::string> files_of(const std::string& p, bool mesh) {
-  if (!mesh || format_from_path(p) != Format::TetGen) return {p};
-  const size_t dot = p.find_last_of('.');
-  const std::string base = p.substr(0, dot);
-  return {base + ".node", base + ".ele", base + ".face"};
-}
+std::vector<std::string> files_of(const std::string& p, bool mesh) { return mesh ? mesh_files(p) : std::vector<std::string>{p}; }
 }  // namespace
 
 int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::string>>& files, bool out_may_be_in) {

@@ -744,9 +744,6 @@ int leader(const Args& a, int size) {
   if (!a.report.empty()) {
     int64_t bs = 0, bg = 0;
     for (const RoundLog& L : logs) { bs += L.bytes_scatter; bg += L.bytes_gather; }
-    std::string dropped_json = "[";
-    for (size_t i = 0; i < dropped.size(); ++i) dropped_json += (i ? ", " : "") + json_string(dropped[i]);
-    dropped_json += "]";
     std::string js = "{\n  \"tool\": \"tetopt-mpi\",\n  \"input\": " + json_string(a.in) +
                      ",\n  \"output\": " + json_string(a.out) + ",\n  \"ranks\": " + std::to_string(size) +
                      ",\n  \"threads_per_rank\": " + std::to_string(a.opt.threads) +
@@ -757,7 +754,7 @@ int leader(const Args& a, int size) {
                      ",\n  \"seconds_write\": " + num(t_write) + ",\n  \"seconds_per_rank_files\": " + num(t_parts) +
                      ",\n  \"seconds_end_to_end\": " + num(total) +
                      ",\n  \"tets_reordered\": " + (order.empty() ? "false" : "true") +
-                     ",\n  \"dropped_on_write\": " + dropped_json +
+                     ",\n  \"dropped_on_write\": " + json_string_list(dropped) +
                      ",\n  \"bytes_scatter\": " + std::to_string(bs) + ",\n  \"bytes_gather\": " + std::to_string(bg) +
                      ",\n  \"invariants_ok\": true,\n  \"rounds\": [\n";
     for (size_t i = 0; i < logs.size(); ++i) js += round_json(logs[i]) + (i + 1 < logs.size() ? ",\n" : "\n");

@@ -83,6 +83,11 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient 
 /// TetMesh::flipped_on_read) atomically: temporary file, then rename.
 Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions& opt = {});
 
+/// The files a mesh path stands for: a TetGen name (.node or .ele) its
+/// .node, .ele and .face (the .face of an input may be absent); any other
+/// path itself.
+std::vector<std::string> mesh_files(const std::string& path);
+
 /// What m holds that a file of the given format cannot carry and the writer
 /// therefore leaves out, one phrase per kind with its count, e.g. "vertex
 /// refs (12 nonzero)", "physical names (3)"; empty when the file keeps

@@ -40,5 +40,7 @@ std::vector<CellField> quality_cell_fields(const TetMesh& m);
 
 /// JSON string literal (quotes and escapes).
 std::string json_string(const std::string& s);
+/// JSON array of string literals.
+std::string json_string_list(const std::vector<std::string>& v);
 
 }  // namespace tetopt

@@ -254,19 +254,19 @@ Status write_medit_streamed(const std::string& path, const TetMesh& m, int threa
 }
 }  // namespace
 
-Status check_output_path(const std::string& path) {
-  if (format_from_path(path) == Format::TetGen) {
-    const std::string base = stem(path);
-    for (const char* ext : {".node", ".ele", ".face"})
-      if (Status s = check_one_output(base + ext, follow_links(base + ext)); !s) return s;
-    return Status::success();
-  }
-  return check_one_output(path, follow_links(path));
+std::vector<std::string> mesh_files(const std::string& path) {
+  if (format_from_path(path) != Format::TetGen) return {path};
+  const std::string base = stem(path);
+  return {base + ".node", base + ".ele", base + ".face"};
 }
 
-Status write_file_atomic(const std::string& path, std::string_view bytes) {
-  return write_through_temp(path, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); });
+Status check_output_path(const std::string& path) {
+  for (const std::string& f : mesh_files(path))
+    if (Status s = check_one_output(f, follow_links(f)); !s) return s;
+  return Status::success();
 }
+
+Status write_file_atomic(const std::string& path, std::string_view bytes) { return write_files_atomic({{path, bytes}}); }
 
 namespace {
 // A text file saved by some Windows editors starts with the UTF-8 byte order
@@ -378,10 +378,10 @@ Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions&
     case Format::TetGen: {
       std::string ele, face;
       if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, path + ": " + s.message);
-      const std::string base = stem(path);
       // .face always written (possibly empty) so a stale .face never pairs
       // with new .node/.ele; the three files all or none.
-      return write_files_atomic({{base + ".node", out}, {base + ".ele", ele}, {base + ".face", face}});
+      const std::vector<std::string> names = mesh_files(path);
+      return write_files_atomic({{names[0], out}, {names[1], ele}, {names[2], face}});
     }
     case Format::Medit: return write_medit_streamed(path, m, opt.threads);
     case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;
