@@ -402,11 +402,11 @@ void achieved_on_face(const TetMesh& m, int32_t packed, double& a_best, double& 
     const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
     const double q = alpha(a, b, c, d);
     if (q <= 0) continue;
-    double dh[6];
-    dihedral_angles(a, b, c, d, dh);
+    double lo_deg, hi_deg;
+    dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
     a_best = std::max(a_best, q);
-    dmin_best = std::max(dmin_best, *std::min_element(dh, dh + 6));
-    dmax_best = std::min(dmax_best, *std::max_element(dh, dh + 6));
+    dmin_best = std::max(dmin_best, lo_deg);
+    dmax_best = std::min(dmax_best, hi_deg);
   }
 }
 
@@ -534,10 +534,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     p.tet = t;
     p.alpha = alpha(a, b, c, e);
     p.kind = m.tet_kind.empty() ? 0 : m.tet_kind[t];
-    double dh[6];
-    dihedral_angles(a, b, c, e, dh);
-    p.dihedral_min = *std::min_element(dh, dh + 6);
-    p.dihedral_max = *std::max_element(dh, dh + 6);
+    dihedral_extremes(a, b, c, e, p.dihedral_min, p.dihedral_max);
     for (int k = 0; k < 3; ++k) p.centroid[k] = (a[k] + b[k] + c[k] + e[k]) / 4;
   });
   d.poor.reserve(poor.size());

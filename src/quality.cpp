@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <set>
 #include <sstream>
@@ -102,27 +103,78 @@ double alpha(const double* a, const double* b, const double* c, const double* d)
   return alpha_from(tet_signed_volume(a, b, c, d), face_area_sum(p), edge_lengths2(p).max);
 }
 
+namespace {
+// Edge e's dihedral angle as atan2(s, cth): u and v, the edges from its
+// first vertex to the two others, projected on the plane normal to it.
+void edge_sin_cos(const double* const p[4], int e, double& s, double& cth) {
+  const double* pi = p[kEdgeVertex[e][0]];
+  const double* pj = p[kEdgeVertex[e][1]];
+  const int o = kEdgeOpposite[e];
+  const double* pk = p[kEdgeVertex[o][0]];
+  const double* pl = p[kEdgeVertex[o][1]];
+  double ax[3], u[3], v[3];
+  sub(pj, pi, ax);
+  const double la = norm(ax);
+  if (la > 0) { ax[0] /= la; ax[1] /= la; ax[2] /= la; }
+  sub(pk, pi, u);
+  sub(pl, pi, v);
+  const double du = dot(u, ax), dv = dot(v, ax);
+  for (int k = 0; k < 3; ++k) { u[k] -= du * ax[k]; v[k] -= dv * ax[k]; }
+  double x[3];
+  cross(u, v, x);
+  s = norm(x);
+  cth = dot(u, v);
+}
+double angle_deg(double s, double cth) { return (s == 0 && cth == 0) ? 0.0 : std::atan2(s, cth) * (180.0 / M_PI); }
+}  // namespace
+
 void dihedral_angles(const double* a, const double* b, const double* c, const double* d,
                      double out[6]) {
   const double* p[4] = {a, b, c, d};
   for (int e = 0; e < 6; ++e) {
-    const double* pi = p[kEdgeVertex[e][0]];
-    const double* pj = p[kEdgeVertex[e][1]];
-    const int o = kEdgeOpposite[e];
-    const double* pk = p[kEdgeVertex[o][0]];
-    const double* pl = p[kEdgeVertex[o][1]];
-    double ax[3], u[3], v[3];
-    sub(pj, pi, ax);
-    const double la = norm(ax);
-    if (la > 0) { ax[0] /= la; ax[1] /= la; ax[2] /= la; }
-    sub(pk, pi, u);
-    sub(pl, pi, v);
-    const double du = dot(u, ax), dv = dot(v, ax);
-    for (int k = 0; k < 3; ++k) { u[k] -= du * ax[k]; v[k] -= dv * ax[k]; }
-    double x[3];
-    cross(u, v, x);
-    const double s = norm(x), cth = dot(u, v);
-    out[e] = (s == 0 && cth == 0) ? 0.0 : std::atan2(s, cth) * (180.0 / M_PI);
+    double s, cth;
+    edge_sin_cos(p, e, s, cth);
+    out[e] = angle_deg(s, cth);
+  }
+}
+
+void dihedral_extremes(const double* a, const double* b, const double* c, const double* d, double& lo_deg,
+                       double& hi_deg) {
+  const double* p[4] = {a, b, c, d};
+  double s[6], cth[6], cosine[6];
+  bool finite = true;
+  for (int e = 0; e < 6; ++e) {
+    edge_sin_cos(p, e, s[e], cth[e]);
+    // The cosine of the angle atan2(s, cth), from (s, cth) scaled so that
+    // the larger is 1 (no underflow in the squares); (0, 0) is angle 0.
+    const double r = std::max(std::fabs(s[e]), std::fabs(cth[e]));
+    if (r > 0) {
+      const double x = s[e] / r, y = cth[e] / r;
+      cosine[e] = y / std::sqrt(x * x + y * y);
+    } else {
+      cosine[e] = 1.0;
+    }
+    finite = finite && std::isfinite(cosine[e]);
+  }
+  lo_deg = std::numeric_limits<double>::infinity();
+  hi_deg = -std::numeric_limits<double>::infinity();
+  if (!finite) {  // NaN or infinite input: the six angles as dihedral_angles has them
+    double dh[6];
+    dihedral_angles(a, b, c, d, dh);
+    lo_deg = *std::min_element(dh, dh + 6);
+    hi_deg = *std::max_element(dh, dh + 6);
+    return;
+  }
+  // atan2 only where the cosine is within kTie of the largest (smallest):
+  // the cosine is off by a few ulps at most, far below kTie, so the edge
+  // whose atan2 is the smallest (largest) is always among them and the
+  // result is the min (max) of dihedral_angles, bit for bit (the unit test
+  // DihedralExtremesEqualTheMinAndMaxOfTheSixAngles checks it).
+  constexpr double kTie = 1e-9;
+  const double cmax = *std::max_element(cosine, cosine + 6), cmin = *std::min_element(cosine, cosine + 6);
+  for (int e = 0; e < 6; ++e) {
+    if (cosine[e] >= cmax - kTie) lo_deg = std::min(lo_deg, angle_deg(s[e], cth[e]));
+    if (cosine[e] <= cmin + kTie) hi_deg = std::max(hi_deg, angle_deg(s[e], cth[e]));
   }
 }
 
@@ -289,10 +341,7 @@ TetQualityFields compute_fields(const TetMesh& m) {
     const int32_t* v = m.tet(t);
     const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
     f.alpha[t] = alpha(a, b, c, d);
-    double dh[6];
-    dihedral_angles(a, b, c, d, dh);
-    f.dihedral_min[t] = *std::min_element(dh, dh + 6);
-    f.dihedral_max[t] = *std::max_element(dh, dh + 6);
+    dihedral_extremes(a, b, c, d, f.dihedral_min[t], f.dihedral_max[t]);
   }
   return f;
 }

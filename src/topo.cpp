@@ -282,11 +282,12 @@ double TopoEditor::quality(const double* a, const double* b, const double* c, co
   // exactly at the targets.  Tets below the alpha floor count as -inf, so a
   // dihedral pass never lowers the mesh's worst alpha.
   if (alpha(a, b, c, d) < o_.alpha_floor || tet_signed_volume(a, b, c, d) <= 0) return -kInf;
-  double deg[6];
-  dihedral_angles(a, b, c, d, deg);
-  double q = kInf;
-  for (double x : deg) q = std::min({q, x / o_.dihedral_lo, (180.0 - x) / (180.0 - o_.dihedral_hi)});
-  return q;
+  // min over the six angles x of x / lo and (180 - x) / (180 - hi): the
+  // smallest angle gives the first, the largest the second (division and
+  // subtraction round monotonically, so this is the same number).
+  double lo_deg, hi_deg;
+  dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
+  return std::min(lo_deg / o_.dihedral_lo, (180.0 - hi_deg) / (180.0 - o_.dihedral_hi));
 }
 
 double TopoEditor::deferred(int32_t t) const {

@@ -1,7 +1,9 @@
 // Quality measures: values on known tets and invariances.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "tetopt/generate.hpp"
@@ -163,6 +165,62 @@ TEST(Quality, StatsAreThePerTetMeasuresExactly) {
     EXPECT_NEAR(s.dihedral_min, dmin, 1e-9);
     EXPECT_NEAR(s.dihedral_max, dmax, 1e-9);
   }
+}
+
+TEST(Quality, DihedralExtremesEqualTheMinAndMaxOfTheSixAngles) {
+  // dihedral_extremes computes atan2 only for the edges whose angle is
+  // nearly extreme; its result must be dihedral_angles' min and max bit for
+  // bit (the dihedral measure of the topology passes is built on it, and the
+  // output must not depend on which of the two computed it).  Shapes: random,
+  // slivers (four nearly coplanar points), needles, caps, flat and
+  // degenerate tets, repeated points, tiny and huge scales, and the
+  // regular tet (six equal angles: ties).
+  std::mt19937_64 rng(12345);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto check = [](const double* a, const double* b, const double* c, const double* d) {
+    double dh[6], lo = 0, hi = 0;
+    dihedral_angles(a, b, c, d, dh);
+    dihedral_extremes(a, b, c, d, lo, hi);
+    const double want_lo = *std::min_element(dh, dh + 6), want_hi = *std::max_element(dh, dh + 6);
+    EXPECT_EQ(std::memcmp(&lo, &want_lo, sizeof lo), 0) << lo << " vs " << want_lo;
+    EXPECT_EQ(std::memcmp(&hi, &want_hi, sizeof hi), 0) << hi << " vs " << want_hi;
+  };
+  int n = 0;
+  for (int k = 0; k < 200000; ++k) {
+    double p[4][3];
+    for (auto& q : p)
+      for (double& x : q) x = u(rng);
+    const int shape = k % 8;
+    const double eps = std::pow(10.0, -1.0 - static_cast<double>(k % 15));
+    if (shape == 1) {  // sliver: d close to the plane of a, b, c
+      for (int j = 0; j < 3; ++j) p[3][j] = 0.5 * (p[0][j] + p[1][j]) + 0.3 * (p[2][j] - p[0][j]);
+      p[3][2] += eps;
+    } else if (shape == 2) {  // needle: b close to a
+      for (int j = 0; j < 3; ++j) p[1][j] = p[0][j] + eps * u(rng);
+    } else if (shape == 3) {  // cap: d close to the triangle a, b, c, inside it
+      for (int j = 0; j < 3; ++j) p[3][j] = (p[0][j] + p[1][j] + p[2][j]) / 3;
+      p[3][0] += eps;
+    } else if (shape == 4) {  // flat: four coplanar points
+      for (auto& q : p) q[2] = 0.25;
+    } else if (shape == 5) {  // a repeated point
+      for (int j = 0; j < 3; ++j) p[2][j] = p[1][j];
+    } else if (shape == 6) {  // tiny or huge scale
+      const double scale = (k % 16 < 8) ? 1e-150 : 1e150;
+      for (auto& q : p)
+        for (double& x : q) x *= scale;
+    } else if (shape == 7) {  // nearly regular: near-ties among the six
+      const double r[4][3] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 3; ++j) p[i][j] = r[i][j] + eps * u(rng);
+    }
+    check(p[0], p[1], p[2], p[3]);
+    ++n;
+  }
+  const double r[4][3] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+  check(r[0], r[1], r[2], r[3]);
+  const double z[3] = {0, 0, 0};
+  check(z, z, z, z);  // all four points equal: every angle 0
+  EXPECT_EQ(n, 200000);
 }
 
 TEST(Report, JsonStringIsValidJsonForAnyBytes) {
