@@ -655,15 +655,24 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
   }
   bool used[kMaxOuter] = {};
   for (int i = 0; i < 4 * c.n_new; ++i) c.link[i] = std::numeric_limits<int32_t>::min();
+  // Every new face's canonical triple and that of its reverse, computed once
+  // (the pairing below compares each face with all later ones).
+  int32_t fkey[4 * kMaxNew][3], frev[4 * kMaxNew][3];
+  for (int i = 0; i < c.n_new; ++i)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t* q = c.quad[i];
+      const int32_t v[3] = {q[kFaceVertex[f][0]], q[kFaceVertex[f][1]], q[kFaceVertex[f][2]]};
+      canonical(v, fkey[4 * i + f]);
+      const int32_t vr[3] = {v[0], v[2], v[1]};
+      canonical(vr, frev[4 * i + f]);
+    }
   for (int i = 0; i < c.n_new; ++i)
     for (int f = 0; f < 4; ++f) {
       if (c.link[4 * i + f] != std::numeric_limits<int32_t>::min()) continue;
       const int32_t* q = c.quad[i];
       const int32_t v[3] = {q[kFaceVertex[f][0]], q[kFaceVertex[f][1]], q[kFaceVertex[f][2]]};
-      int32_t key[3], rev[3];
-      canonical(v, key);
-      const int32_t vr[3] = {v[0], v[2], v[1]};
-      canonical(vr, rev);
+      const int32_t* key = fkey[4 * i + f];
+      const int32_t* rev = frev[4 * i + f];
       int found = 0;
       for (int k = 0; k < c.n_outer; ++k) {
         if (same3(c.outer_v[k], key)) {
@@ -677,10 +686,7 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
       }
       for (int j = i + 1; j < c.n_new; ++j)
         for (int g = 0; g < 4; ++g) {
-          const int32_t* r = c.quad[j];
-          const int32_t w[3] = {r[kFaceVertex[g][0]], r[kFaceVertex[g][1]], r[kFaceVertex[g][2]]};
-          int32_t wk[3];
-          canonical(w, wk);
+          const int32_t* wk = fkey[4 * j + g];
           if (same3(wk, rev)) {
             if (found || c.link[4 * j + g] != std::numeric_limits<int32_t>::min()) return TopoResult::NotApplicable;
             c.link[4 * i + f] = 4 * j + g;
