@@ -184,6 +184,22 @@ void unpack(const PackedCandidate& s, TopoEditor::Candidate& d) {
   std::copy(s.new_alpha.begin(), s.new_alpha.end(), d.new_alpha);
   std::copy(s.outer_mask.begin(), s.outer_mask.end(), d.outer_mask);
 }
+
+// TopoOptions::alpha_keep: the tets an operation removes and those it makes
+// are tallied (how many below `keep`, the worst alpha); the new ones may
+// replace the old when there are no more of them below `keep` and their
+// worst is at least min(the old worst, keep).
+struct AlphaTally {
+  int below = 0;
+  double worst = kInf;
+  void add(double a, double keep) {
+    below += a < keep;
+    worst = std::min(worst, a);
+  }
+};
+bool keeps_alpha(const AlphaTally& before, const AlphaTally& after, double keep) {
+  return after.below <= before.below && after.worst >= std::min(before.worst, keep);
+}
 }  // namespace
 
 TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : TopoEditor(m, o, nullptr) {}
@@ -622,6 +638,15 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
   if (!ok && !strict && !o_.must_improve)
     ok = c.k4_new < c.k4_old && c.new_min >= c.old_min - o_.worsen_bound && worst_k4 >= c.old_min;
   if (!ok) return c.new_min > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
+  if (o_.alpha_keep > 0 && o_.measure == TopoMeasure::Dihedral && !restoring_) {
+    AlphaTally before, after;
+    for (int i = 0; i < c.n_old; ++i) before.add(tet_alpha(m_, c.old_tets[i]), o_.alpha_keep);
+    for (int i = 0; i < c.n_new; ++i) {
+      const int32_t* q = c.quad[i];
+      after.add(alpha(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])), o_.alpha_keep);
+    }
+    if (!keeps_alpha(before, after, o_.alpha_keep)) return TopoResult::NotImproved;
+  }
   // (An undo restores tets that were there, flat or inverted input tets that
   // untangling could not fix included: no orientation test for them.)
   for (int i = 0; i < c.n_new && !restoring_; ++i) {
@@ -1784,6 +1809,17 @@ bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
     if (!moved) h *= 0.5;
   }
   if (!(f > f0)) return false;
+  if (const double keep = q.options().alpha_keep; keep > 0) {
+    AlphaTally before, after;
+    for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+      const int32_t* tv = m.tet(*it);
+      const double* p[4];
+      for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? x : m.point(tv[k]);
+      before.add(tet_alpha(m, *it), keep);
+      after.add(alpha(p[0], p[1], p[2], p[3]), keep);
+    }
+    if (!keeps_alpha(before, after, keep)) return false;
+  }
   const double old[3] = {m.point(v)[0], m.point(v)[1], m.point(v)[2]};
   std::copy(x, x + 3, m.point(v));
   for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {

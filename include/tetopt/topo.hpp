@@ -99,6 +99,12 @@ struct TopoOptions {
   /// the measure: set it to the mesh's worst alpha to make a dihedral pass
   /// that never lowers the worst alpha.
   double alpha_floor = -1e300;
+  /// Dihedral measure only (0: off): an operation or vertex move may not
+  /// leave more tets below this alpha than it found, nor a worst alpha below
+  /// min(the worst alpha it found, this).  alpha_floor alone, set to a worst
+  /// alpha that cannot rise (tets on needle boundary triangles), lets a
+  /// dihedral pass put new tets just above it beside them.
+  double alpha_keep = 0;
   double dihedral_lo = 30.0;   ///< Dihedral measure: target smallest angle (degrees)
   double dihedral_hi = 140.0;  ///< Dihedral measure: target largest angle (degrees)
   /// An operation "improves" when the worst alpha of the new tets exceeds the
@@ -252,6 +258,8 @@ class TopoEditor {
   bool alive(int32_t t) const;      ///< t is a live tet (not a tombstone)
   /// The option's measure of tet (a, b, c, d) (alpha by default), -inf below
   /// TopoOptions::alpha_floor.  cached_alpha() holds this measure.
+  /// The options the editor was opened with.
+  const TopoOptions& options() const { return o_; }
   double quality(const double* a, const double* b, const double* c, const double* d) const;
   double cached_alpha(int32_t t) const {
     const double a = alpha_[t];
