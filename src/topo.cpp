@@ -1756,14 +1756,28 @@ namespace {
 
 // Dihedral measure of the star of free vertex v with v at x (-inf when a tet
 // falls below the alpha floor or is flat / inverted in floating point).
-double star_quality(const TetMesh& m, const TopoEditor& q, int32_t v, const double x[3]) {
+// The star's worst measure with v at x; it stops as soon as that is at or
+// below `enough` (a candidate position that cannot be accepted), so the
+// exact value comes back whenever it is above `enough`.  The star's tet
+// `first` (its index in the star) is measured first: the worst tet at the
+// current position is the likeliest to stop a candidate at once.  *worst
+// (optional) gets the index of the worst tet when the value is exact.
+double star_quality(const TetMesh& m, const TopoEditor& q, int32_t v, const double x[3], double enough = -kInf,
+                    int first = 0, int* worst = nullptr) {
+  const int32_t* star = m.star_begin(v);
+  const int n = static_cast<int>(m.star_end(v) - star);
   double w = kInf;
-  for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
-    const int32_t* tv = m.tet(*it);
+  for (int i = 0; i < n; ++i) {
+    const int j = i == 0 ? first : (i <= first ? i - 1 : i);
+    const int32_t* tv = m.tet(star[j]);
     const double* p[4];
     for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? x : m.point(tv[k]);
-    w = std::min(w, q.quality(p[0], p[1], p[2], p[3]));
-    if (w == -kInf) break;
+    const double qj = q.quality(p[0], p[1], p[2], p[3]);
+    if (qj < w) {
+      w = qj;
+      if (worst) *worst = j;
+    }
+    if (w == -kInf || w <= enough) break;
   }
   return w;
 }
@@ -1774,7 +1788,8 @@ double star_quality(const TetMesh& m, const TopoEditor& q, int32_t v, const doub
 bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
   if (m.vert_constrained[v] || m.star_begin(v) == m.star_end(v)) return false;
   double x[3] = {m.point(v)[0], m.point(v)[1], m.point(v)[2]};
-  const double f0 = star_quality(m, q, v, x);
+  int first = 0;
+  const double f0 = star_quality(m, q, v, x, -kInf, 0, &first);
   if (!(f0 > -kInf)) return false;
   double len = 0;
   int ne = 0;
@@ -1797,9 +1812,12 @@ bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
     for (const auto& d : kDir) {
       const double s = (&d - kDir) < 6 ? h : h * 0.57735026918962584;
       const double y[3] = {x[0] + s * d[0], x[1] + s * d[1], x[2] + s * d[2]};
-      const double fy = star_quality(m, q, v, y);
+      const double need = f * (1 + 1e-9) + 1e-12;
+      int worst = first;
+      const double fy = star_quality(m, q, v, y, need, first, &worst);
       ++evals;
-      if (fy > f * (1 + 1e-9) + 1e-12) {
+      if (fy > need) {
+        first = worst;
         f = fy;
         x[0] = y[0]; x[1] = y[1]; x[2] = y[2];
         moved = true;
