@@ -11,7 +11,9 @@
 #   4. peers: bench/peers.py (gmsh optimizer, tetgen, tetopt, judged by
 #      meshcheck) on the impeller and ../shared/meshes (tire, hinge_small,
 #      flange) when present;
-#   5. micro-benchmarks: BUILD_DIR/tetopt_bench when it was built.
+#   5. micro-benchmarks: BUILD_DIR/tetopt_bench when it was built;
+#   6. after the impeller runs, the machine's own 1 -> 2 thread ceiling
+#      (bench/ceiling.cpp, compute-bound and random-read loops).
 # Results: out/bench/results.json, out/bench/results.md, and the block between
 # the bench markers in docs/benchmarks.md is replaced by results.md.
 #
@@ -29,6 +31,7 @@ mkdir -p "$OUT/runs"
 QUICK=${BENCH_QUICK:-0}
 RUNS=$OUT/runs.jsonl
 : > "$RUNS"
+rm -f "$OUT/ceiling.json"
 
 # timed NAME TETS CMD...: runs CMD under /usr/bin/time, appends one JSON line.
 timed() {
@@ -99,6 +102,15 @@ with open(path, "w") as fh:
 EOF
   cmp -s "$OUT/runs/impeller_t1.mesh" "$OUT/runs/impeller_t2.mesh" && echo "  threads 1 and 2: identical output" \
     || echo "  threads 1 and 2: OUTPUTS DIFFER"
+  # The machine's own 1 -> 2 thread ceiling right after, to read the ratio
+  # against (bench/ceiling.cpp: compute-bound and random-read loops).
+  if ${CXX:-g++} -O2 -std=c++17 -pthread bench/ceiling.cpp -o "$OUT/ceiling" 2> "$OUT/ceiling.log"; then
+    "$OUT/ceiling" 5 > "$OUT/ceiling.json" 2>> "$OUT/ceiling.log" || rm -f "$OUT/ceiling.json"
+    [ -f "$OUT/ceiling.json" ] && echo "  machine ceiling: $(cat "$OUT/ceiling.json")"
+  else
+    rm -f "$OUT/ceiling.json"
+    echo "  bench/ceiling.cpp did not build (see $OUT/ceiling.log)"
+  fi
 else
   echo "== no $IMP (run make demo first): impeller skipped"
 fi

@@ -49,6 +49,11 @@ def main():
     if os.path.exists(mp):
         with open(mp) as fh:
             micro = json.load(fh)
+    ceiling = None
+    cp = os.path.join(out, "ceiling.json")
+    if os.path.exists(cp):
+        with open(cp) as fh:
+            ceiling = json.load(fh)
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     except OSError:
@@ -59,7 +64,7 @@ def main():
         load = (0, 0, 0)
     meta = {"date": datetime.datetime.now().isoformat(timespec="seconds"), "commit": commit,
             "machine": f"{platform.machine()}, {os.cpu_count()} cores", "load_average": load}
-    res = {"meta": meta, "runs": runs, "peers": peers,
+    res = {"meta": meta, "runs": runs, "peers": peers, "ceiling": ceiling,
            "micro": micro["benchmarks"] if micro else None}
     with open(os.path.join(out, "results.json"), "w") as fh:
         json.dump(res, fh, indent=1)
@@ -90,6 +95,11 @@ def main():
             if t1.get("walls_s") and t2.get("walls_s"):
                 md += [f"Wall times, sorted: 1 thread {', '.join(f'{w:.2f}' for w in t1['walls_s'])} s; "
                        f"2 threads {', '.join(f'{w:.2f}' for w in t2['walls_s'])} s."]
+            if ceiling:
+                md += [f"The machine's own 1 -> 2 thread speed-up right after (bench/ceiling.cpp, medians of "
+                       f"{ceiling['reps']}): {ceiling['compute']['speedup']:.2f}x compute-bound, "
+                       f"{ceiling['random_walk']['speedup']:.2f}x for a random walk through 32 MiB per thread (each read "
+                       f"waits for the one before)."]
     if peers:
         md += ["", "Peers (bench/peers.py, judged by meshcheck; seconds as peers.py measures them), "
                "ratio = peer seconds / tetopt seconds:", "",
