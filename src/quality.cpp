@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstdio>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -313,9 +313,9 @@ QualityStats compute_stats(const TetMesh& m, int threads) {
   const Sum &all_sum = all.all, &bnd = all.bnd, &inr = all.inr;
   auto extreme = [&](int32_t t, bool want_min) {
     const int32_t* v = m.tet(t);
-    double dh[6];
-    dihedral_angles(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]), dh);
-    return want_min ? *std::min_element(dh, dh + 6) : *std::max_element(dh, dh + 6);
+    double lo_deg, hi_deg;
+    dihedral_extremes(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]), lo_deg, hi_deg);
+    return want_min ? lo_deg : hi_deg;
   };
   if (min_dih_tet >= 0) s.dihedral_min = extreme(min_dih_tet, true);
   if (max_dih_tet >= 0) s.dihedral_max = extreme(max_dih_tet, false);

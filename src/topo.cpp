@@ -1754,11 +1754,11 @@ TopoStats flip_pass(TetMesh& m, const TopoOptions& o, const LogFn& log, std::vec
 
 namespace {
 
-// Dihedral measure of the star of free vertex v with v at x (-inf when a tet
-// falls below the alpha floor or is flat / inverted in floating point).
-// The star's worst measure with v at x; it stops as soon as that is at or
-// below `enough` (a candidate position that cannot be accepted), so the
-// exact value comes back whenever it is above `enough`.  The star's tet
+// The worst dihedral measure of the star of free vertex v with v at x (-inf
+// when a tet falls below the alpha floor or is flat / inverted in floating
+// point).  It stops as soon as that is at or below `enough` (a candidate
+// position that cannot be accepted), so the exact value comes back whenever
+// it is above `enough`.  The star's tet
 // `first` (its index in the star) is measured first: the worst tet at the
 // current position is the likeliest to stop a candidate at once.  *worst
 // (optional) gets the index of the worst tet when the value is exact.

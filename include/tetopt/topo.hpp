@@ -256,10 +256,9 @@ class TopoEditor {
   int64_t improve_tets(const std::vector<int32_t>& work, bool strict, bool kind4_only, double threshold);
 
   bool alive(int32_t t) const;      ///< t is a live tet (not a tombstone)
+  const TopoOptions& options() const { return o_; }  ///< the options the editor was opened with
   /// The option's measure of tet (a, b, c, d) (alpha by default), -inf below
   /// TopoOptions::alpha_floor.  cached_alpha() holds this measure.
-  /// The options the editor was opened with.
-  const TopoOptions& options() const { return o_; }
   double quality(const double* a, const double* b, const double* c, const double* d) const;
   double cached_alpha(int32_t t) const {
     const double a = alpha_[t];
