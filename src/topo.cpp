@@ -200,6 +200,20 @@ struct AlphaTally {
 bool keeps_alpha(const AlphaTally& before, const AlphaTally& after, double keep) {
   return after.below <= before.below && after.worst >= std::min(before.worst, keep);
 }
+// TopoOptions::angle_keep, the same for the largest dihedral angle (degrees).
+struct AngleTally {
+  int above = 0;
+  double worst = -kInf;
+  void add(const double* a, const double* b, const double* c, const double* d, double keep) {
+    double lo, hi;
+    dihedral_extremes(a, b, c, d, lo, hi);
+    above += hi > keep;
+    worst = std::max(worst, hi);
+  }
+};
+bool keeps_angle(const AngleTally& before, const AngleTally& after, double keep) {
+  return after.above <= before.above && after.worst <= std::max(before.worst, keep);
+}
 }  // namespace
 
 TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : TopoEditor(m, o, nullptr) {}
@@ -646,6 +660,18 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
       after.add(alpha(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])), o_.alpha_keep);
     }
     if (!keeps_alpha(before, after, o_.alpha_keep)) return TopoResult::NotImproved;
+  }
+  if (o_.angle_keep > 0 && o_.measure == TopoMeasure::Dihedral && !restoring_) {
+    AngleTally before, after;
+    for (int i = 0; i < c.n_old; ++i) {
+      const int32_t* q = m_.tet(c.old_tets[i]);
+      before.add(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]), o_.angle_keep);
+    }
+    for (int i = 0; i < c.n_new; ++i) {
+      const int32_t* q = c.quad[i];
+      after.add(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]), o_.angle_keep);
+    }
+    if (!keeps_angle(before, after, o_.angle_keep)) return TopoResult::NotImproved;
   }
   // (An undo restores tets that were there, flat or inverted input tets that
   // untangling could not fix included: no orientation test for them.)
@@ -1837,6 +1863,17 @@ bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
       after.add(alpha(p[0], p[1], p[2], p[3]), keep);
     }
     if (!keeps_alpha(before, after, keep)) return false;
+  }
+  if (const double keep = q.options().angle_keep; keep > 0) {
+    AngleTally before, after;
+    for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+      const int32_t* tv = m.tet(*it);
+      const double* p[4];
+      for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? x : m.point(tv[k]);
+      before.add(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3]), keep);
+      after.add(p[0], p[1], p[2], p[3], keep);
+    }
+    if (!keeps_angle(before, after, keep)) return false;
   }
   const double old[3] = {m.point(v)[0], m.point(v)[1], m.point(v)[2]};
   std::copy(x, x + 3, m.point(v));

@@ -105,6 +105,13 @@ struct TopoOptions {
   /// alpha that cannot rise (tets on needle boundary triangles), lets a
   /// dihedral pass put new tets just above it beside them.
   double alpha_keep = 0;
+  /// Dihedral measure only (0: off): an operation or vertex move may not
+  /// leave more tets with a dihedral angle above this (degrees) than it
+  /// found, nor a largest angle above max(the largest it found, this).  The
+  /// measure rates an angle of 179.5 degrees like one of 0.375: without this
+  /// rule a pass would buy a needle tet's smallest angle up from 0.2 to 0.4
+  /// degrees with a new tet of 179.5.
+  double angle_keep = 0;
   double dihedral_lo = 30.0;   ///< Dihedral measure: target smallest angle (degrees)
   double dihedral_hi = 140.0;  ///< Dihedral measure: target largest angle (degrees)
   /// An operation "improves" when the worst alpha of the new tets exceeds the

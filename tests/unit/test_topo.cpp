@@ -958,6 +958,96 @@ TEST(Improve, BestModeWidensGammaToTheAffordableSetOnAGenerallyPoorMesh) {
   EXPECT_GT(r.rounds, 6);
 }
 
+namespace {
+// A jittered nx x nx x nz box whose bottom face (z = 0) has needle
+// triangles: every third vertex strictly inside it, moved within the face
+// almost onto its neighbour in +x (x = i + 0.999).  A move that would make a
+// tet non-positive is undone; *moved counts the others.  The tets on the
+// needles cannot reach a good alpha whatever their apex (a thin vessel wall
+// meshed coarsely: aorta_vessel).  Topology not built.
+TetMesh needle_box(int nx, int nz, uint64_t seed, int* moved) {
+  TetMesh m = make_box_mesh({.nx = nx, .ny = nx, .nz = nz, .jitter = 0.3, .seed = seed});
+  *moved = 0;
+  for (int32_t v = 0; v < m.nv(); ++v) {
+    double* p = m.point(v);
+    if (p[2] != 0.0 || p[0] <= 0.5 || p[0] >= nx - 0.5 || p[1] <= 0.5 || p[1] >= nx - 0.5) continue;
+    const long i = std::lround(p[0]), j = std::lround(p[1]);
+    if ((i + j) % 3 != 0) continue;
+    const double old_x = p[0];
+    p[0] = static_cast<double>(i) + 0.999;
+    bool ok = true;
+    for (int32_t t = 0; t < m.nt() && ok; ++t) {
+      const int32_t* q = m.tet(t);
+      if (q[0] == v || q[1] == v || q[2] == v || q[3] == v)
+        ok = orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) == Sign::Positive;
+    }
+    if (ok) ++*moved;
+    else p[0] = old_x;
+  }
+  return m;
+}
+
+// Tets whose largest dihedral angle exceeds `above` degrees, and the largest.
+int tets_above(const TetMesh& m, double above, double* largest) {
+  int n = 0;
+  *largest = 0;
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    double lo, hi;
+    dihedral_extremes(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]), lo, hi);
+    n += hi > above;
+    *largest = std::max(*largest, hi);
+  }
+  return n;
+}
+}  // namespace
+
+TEST(Topo, DihedralPassBuysNoSmallAngleWithALargeOne) {
+  // The dihedral measure rates an angle of 179.5 degrees like one of 0.375:
+  // beside needle boundary triangles (worst alpha 0.001, the pass's floor)
+  // the pass raised the needle tets' smallest angles by making new tets with
+  // angles of 170-178 degrees (this box: none above 170 before, 15 after).
+  // TopoOptions::angle_keep = 170 forbids adding any.
+  int moved = 0;
+  const TetMesh m0 = [&] {
+    TetMesh m = needle_box(8, 4, 1, &moved);
+    EXPECT_TRUE(build_topology(m).ok());
+    return m;
+  }();
+  ASSERT_GT(moved, 5);
+  double largest0 = 0;
+  const int above0 = tets_above(m0, 170, &largest0);
+  const double a0 = worst_alpha(m0);
+  TopoOptions o;
+  o.quality_threshold = 0.3;
+  o.passes = 2;
+  o.alpha_keep = 0.02;  // as mode best runs it
+  for (const double keep : {0.0, 170.0}) {
+    SCOPED_TRACE(keep);
+    TetMesh m = m0;
+    Snapshot s = snap(m);
+    o.angle_keep = keep;
+    const TopoStats st = dihedral_pass(m, o);
+    ASSERT_TRUE(st.status.ok());
+    EXPECT_GT(st.applied() + st.vertex_moves, 0);
+    EXPECT_GE(worst_alpha(m), a0);
+    double largest = 0;
+    const int above = tets_above(m, 170, &largest);
+    if (keep == 0) {
+      EXPECT_GT(above, above0 + 5);  // what the rule is for
+    } else {
+      EXPECT_LE(above, above0);
+      EXPECT_LE(largest, std::max(largest0, 170.0));
+    }
+    s.xyz = m.xyz;  // free vertices move; constrained ones are checked below
+    expect_invariants(s, m);
+    for (int32_t v = 0; v < m.nv(); ++v) {
+      if (!m.vert_constrained[v]) continue;
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(m.point(v)[k], m0.point(v)[k]) << v;
+    }
+  }
+}
+
 TEST(Improve, DihedralPassAddsNoPoorTetsBesideNeedleBoundaryTriangles) {
   // Tets on needle boundary triangles cannot reach a good alpha whatever
   // their apex (a thin vessel wall meshed coarsely: aorta_vessel), so the
@@ -966,28 +1056,8 @@ TEST(Improve, DihedralPassAddsNoPoorTetsBesideNeedleBoundaryTriangles) {
   // beside good ones: this box went from 127 tets below alpha 0.1 to 459,
   // and from 127 tets with an angle below 5 degrees to 427
   // (TopoOptions::alpha_keep now stops that).
-  TetMesh m = make_box_mesh({.nx = 12, .ny = 12, .nz = 6, .jitter = 0.3, .seed = 3});
-  // Every third vertex strictly inside the bottom face (z = 0), moved
-  // within the face almost onto its neighbour in +x: its triangles become
-  // needles.  A move that would make a tet non-positive is undone.
   int moved = 0;
-  for (int32_t v = 0; v < m.nv(); ++v) {
-    double* p = m.point(v);
-    if (p[2] != 0.0 || p[0] <= 0.5 || p[0] >= 11.5 || p[1] <= 0.5 || p[1] >= 11.5) continue;
-    const long i = std::lround(p[0]), j = std::lround(p[1]);
-    if ((i + j) % 3 != 0) continue;
-    const double old_x = p[0];
-    p[0] = static_cast<double>(i) + 0.999;
-    bool ok = true;
-    for (int32_t t = 0; t < m.nt() && ok; ++t) {
-      const int32_t* q = m.tet(t);
-      if (q[0] == v || q[1] == v || q[2] == v || q[3] == v) {
-        ok = orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) == Sign::Positive;
-      }
-    }
-    if (ok) ++moved;
-    else p[0] = old_x;
-  }
+  TetMesh m = needle_box(12, 6, 3, &moved);
   ASSERT_GT(moved, 20);
   ASSERT_TRUE(build_topology(m).ok());
   const Snapshot s = snap(m);
