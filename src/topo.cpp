@@ -663,15 +663,17 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
   }
   if (o_.angle_keep > 0 && o_.measure == TopoMeasure::Dihedral && !restoring_) {
     AngleTally before, after;
-    for (int i = 0; i < c.n_old; ++i) {
-      const int32_t* q = m_.tet(c.old_tets[i]);
-      before.add(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]), o_.angle_keep);
-    }
     for (int i = 0; i < c.n_new; ++i) {
       const int32_t* q = c.quad[i];
       after.add(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]), o_.angle_keep);
     }
-    if (!keeps_angle(before, after, o_.angle_keep)) return TopoResult::NotImproved;
+    if (after.above > 0) {  // else the rule holds whatever the old tets were
+      for (int i = 0; i < c.n_old; ++i) {
+        const int32_t* q = m_.tet(c.old_tets[i]);
+        before.add(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]), o_.angle_keep);
+      }
+      if (!keeps_angle(before, after, o_.angle_keep)) return TopoResult::NotImproved;
+    }
   }
   // (An undo restores tets that were there, flat or inverted input tets that
   // untangling could not fix included: no orientation test for them.)
@@ -1870,10 +1872,15 @@ bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
       const int32_t* tv = m.tet(*it);
       const double* p[4];
       for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? x : m.point(tv[k]);
-      before.add(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3]), keep);
       after.add(p[0], p[1], p[2], p[3], keep);
     }
-    if (!keeps_angle(before, after, keep)) return false;
+    if (after.above > 0) {  // else the rule holds whatever the star was
+      for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+        const int32_t* tv = m.tet(*it);
+        before.add(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3]), keep);
+      }
+      if (!keeps_angle(before, after, keep)) return false;
+    }
   }
   const double old[3] = {m.point(v)[0], m.point(v)[1], m.point(v)[2]};
   std::copy(x, x + 3, m.point(v));
