@@ -92,15 +92,21 @@ std::string shape_str(const py::array& a) {
   return s + ")";
 }
 
-/// Any array-like as a NumPy array (no copy when it already is one).
+/// Any array-like as a NumPy array in native byte order (no copy when it
+/// already is one).  The readers below take the elements' bytes as they
+/// are: a big-endian '>i4' ref of 1 read as 16777216 before.
 py::array as_array(py::handle obj, const std::string& name) {
-  if (py::isinstance<py::array>(obj)) return py::reinterpret_borrow<py::array>(obj);
   py::array a;
-  try {
-    a = py::module_::import("numpy").attr("asarray")(obj);
-  } catch (py::error_already_set& e) {
-    throw py::value_error(name + ": cannot be converted to an array (" + std::string(e.what()) + ")");
+  if (py::isinstance<py::array>(obj)) {
+    a = py::reinterpret_borrow<py::array>(obj);
+  } else {
+    try {
+      a = py::module_::import("numpy").attr("asarray")(obj);
+    } catch (py::error_already_set& e) {
+      throw py::value_error(name + ": cannot be converted to an array (" + std::string(e.what()) + ")");
+    }
   }
+  if (!a.dtype().attr("isnative").cast<bool>()) a = a.attr("astype")(a.dtype().attr("newbyteorder")("="));
   return a;
 }
 

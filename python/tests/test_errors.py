@@ -287,3 +287,21 @@ def test_allow_insert_outside_mode_best_is_refused():
         tetopt.improve(P, T, mode="smooth", allow_insert=True)
     with pytest.raises(ValueError, match=r"allow_remove works in mode 'best' only"):
         tetopt.improve(P, T, mode="combined", allow_remove=True)
+
+
+def test_arrays_in_either_byte_order_give_the_same_result(tmp_path):
+    # A big-endian '>i4' ref of 1 was read as its raw bytes (16777216), and
+    # '>f8' points were written as denormal garbage: every array is now taken
+    # in native byte order first.
+    refs = np.array([1, 2], dtype=np.int32)
+    swapped = ">" if np.little_endian else "<"
+    p0, t0, r0, _ = tetopt.improve(P, T, refs, threads=1)
+    p1, t1, r1, rep = tetopt.improve(P.astype(swapped + "f8"), T.astype(swapped + "i8"),
+                                     refs.astype(swapped + "i4"), threads=1)
+    assert rep["boundary_unchanged"]["ok"]
+    assert np.array_equal(r1, r0) and sorted(np.unique(r1)) == [1, 2]
+    assert np.array_equal(t1, t0) and np.array_equal(p1, p0)
+    tetopt.write(str(tmp_path / "native.mesh"), tetopt.Mesh(P, T, refs))
+    tetopt.write(str(tmp_path / "swapped.mesh"),
+                 tetopt.Mesh(P.astype(swapped + "f8"), T.astype(swapped + "i4"), refs.astype(swapped + "i4")))
+    assert (tmp_path / "native.mesh").read_bytes() == (tmp_path / "swapped.mesh").read_bytes()
