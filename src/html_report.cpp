@@ -309,8 +309,11 @@ std::string html_report(const HtmlReportInput& in) {
       o << "<div class=\"verdict na\" id=\"verdict\">boundary unchanged: not checked (--no-check)</div>\n";
     else if (r.invariants_ok)
       o << "<div class=\"verdict ok\" id=\"verdict\">boundary unchanged: yes — checked: constrained vertices "
-           "bit-identical, constrained faces identical, no inverted tet (exact predicate), region volumes "
-           "kept</div>\n";
+           "bit-identical, constrained faces identical, "
+        << (r.still_inverted > 0 ? "no new inverted or flat tet (exact predicate; " + std::to_string(r.still_inverted) +
+                                       " input tets stay inverted or flat)"
+                                 : std::string("no inverted tet (exact predicate)"))
+        << ", region volumes kept</div>\n";
     else
       o << "<div class=\"verdict bad\" id=\"verdict\">boundary unchanged: NO — " << esc(r.invariant_message)
         << "</div>\n";

@@ -92,6 +92,16 @@ check "tangled input: every tet positive afterwards" '/usr/bin/python3 -c "
 import json; r=json.load(open(\"$W/tu.json\"))
 assert r[\"after\"][\"inverted_or_flat\"] == 0 and r[\"operations\"][\"untangled\"] > 0"'
 
+# An inverted tet no move can fix (all four vertices constrained: it folds
+# back over its neighbour): exit 0, and the summary must not claim "no
+# inverted tet" (it did) but say that input tets stay inverted or flat.
+printf 'MeshVersionFormatted 2\nDimension 3\nVertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 0\nTetrahedra\n2\n1 2 3 4 1\n5 3 2 4 1\nEnd\n' > "$W/fold.mesh"
+"$T" improve "$W/fold.mesh" -o "$W/fold_out.mesh" --threads 1 --html "$W/fold.html" > "$W/fold.out" 2> /dev/null; rc=$?
+check "folded input: improve exits 0" '[ $rc -eq 0 ]'
+check "folded input: summary says the input tet stays inverted" 'grep -q "no new inverted or flat tet (1 input tets stay inverted or flat)" "$W/fold.out"'
+check "folded input: summary does not claim no inverted tet" '! grep -q "no inverted tet" "$W/fold.out"'
+check "folded input: HTML verdict says the same" 'grep -q "1 input tets stay inverted or flat" "$W/fold.html"'
+
 # --allow-remove: vertices removed (none left unreferenced), the proof holds,
 # the worst alpha within 3% of the run without it on this mesh.  (Removal
 # takes only changes that raise a star's worst alpha, but the later passes
