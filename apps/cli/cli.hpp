@@ -22,6 +22,9 @@ extern std::atomic<bool> g_interrupted;
 void on_sigint(int);
 /// SIGBUS while an input's memory map is read (read_input): one line, exit 2.
 void on_sigbus(int);
+/// SIGTERM, SIGHUP, and SIGINT outside improve: removes the temporary files
+/// of a write in progress, then ends as the signal would (SIGINT: exit 130).
+void on_terminating_signal(int sig);
 /// read_mesh with on_sigbus told which file is being read.
 tetopt::Status read_input(const std::string& path, tetopt::TetMesh& m, tetopt::OrientationReport* orient, int threads);
 

@@ -60,6 +60,22 @@ void on_sigbus(int sig) {
   ::_exit(kExitInput);
 }
 
+// SIGTERM and SIGHUP (every command), SIGINT (the commands other than
+// improve, which stops gracefully on g_interrupted instead): the temporary
+// files of a write in progress are removed, then the process ends as the
+// signal's default action would (SIGINT: exit 130 with one line, as the
+// help says).  Before, a SIGTERM while writing left OUT.tmp-PID-N behind and
+// a Ctrl-C during convert, quality or generate was ignored (exit 0).
+void on_terminating_signal(int sig) {
+  remove_pending_temporaries();
+  if (sig == SIGINT) {
+    put_err("\ntetopt: interrupted\n");
+    ::_exit(kExitInterrupted);
+  }
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
 Status read_input(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   g_reading = path.c_str();
   Status s = read_mesh(path, m, orient, threads);

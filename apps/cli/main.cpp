@@ -49,7 +49,10 @@ const char* kMainHelp =
 int main(int argc, char** argv) {
   tetopt_cli::reexec_with_huge_pages(argv);
   tetopt_cli::keep_freed_memory();
-  std::signal(SIGINT, tetopt_cli::on_sigint);
+  std::signal(SIGINT, argc >= 2 && std::string(argv[1]) == "improve" ? tetopt_cli::on_sigint
+                                                                      : tetopt_cli::on_terminating_signal);
+  std::signal(SIGTERM, tetopt_cli::on_terminating_signal);
+  std::signal(SIGHUP, tetopt_cli::on_terminating_signal);
   std::signal(SIGBUS, tetopt_cli::on_sigbus);
   if (argc < 2) {
     std::fputs(kMainHelp, stderr);

@@ -109,4 +109,10 @@ Status write_file_atomic(const std::string& path, std::string_view bytes);
 /// file keeps pointing at the rewritten file.
 Status check_output_path(const std::string& path);
 
+/// Removes the temporary files of the writes in progress (in any thread):
+/// for a program's handler of SIGTERM, SIGHUP or SIGINT, which would
+/// otherwise leave them beside the outputs.  Only unlink(2), which is
+/// async-signal-safe; the library installs no handler itself.
+void remove_pending_temporaries() noexcept;
+
 }  // namespace tetopt

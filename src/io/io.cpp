@@ -1,5 +1,6 @@
 // Format dispatch, whole-file reading and atomic writing (see io.hpp).
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
@@ -7,6 +8,7 @@
 #include <sys/stat.h>
 #include <fcntl.h>
 #include <fstream>
+#include <memory>
 #include <future>
 #include <random>
 #include <sstream>
@@ -92,6 +94,42 @@ Status read_file_bytes(const std::string& path, std::string& out) {
 }
 
 namespace {
+// The temporary files being written, for remove_pending_temporaries (a
+// signal handler may read them at any moment: a slot's path is complete
+// whenever `ready` is set).  A path too long for a slot is not listed.
+struct PendingTemp {
+  std::atomic<bool> taken{false}, ready{false};
+  char path[4096];
+};
+PendingTemp g_pending[16];
+
+// Lists tmp while it exists (from before its creation to its rename or
+// removal); unlisting it is the destructor's.
+class ListedTemp {
+ public:
+  explicit ListedTemp(const std::string& tmp) {
+    if (tmp.size() >= sizeof(PendingTemp::path)) return;
+    for (PendingTemp& p : g_pending)
+      if (!p.taken.exchange(true)) {
+        std::copy(tmp.begin(), tmp.end(), p.path);
+        p.path[tmp.size()] = '\0';
+        p.ready.store(true);
+        slot_ = &p;
+        return;
+      }
+  }
+  ~ListedTemp() {
+    if (!slot_) return;
+    slot_->ready.store(false);
+    slot_->taken.store(false);
+  }
+  ListedTemp(const ListedTemp&) = delete;
+  ListedTemp& operator=(const ListedTemp&) = delete;
+
+ private:
+  PendingTemp* slot_ = nullptr;
+};
+
 std::string temp_name(const std::string& path) {
   std::random_device rd;
   return path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
@@ -148,6 +186,7 @@ Status check_one_output(const std::string& shown, const std::string& target, boo
   // Creating a file there is the only sure test (access() says yes to root
   // in a read-only or pseudo file system such as /sys).
   const std::string tmp = temp_name(target);
+  const ListedTemp listed(tmp);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
   if (fd < 0) return Status::error(ErrorCode::Io, shown + ": cannot create files in folder '" + dir + "'");
   ::close(fd);
@@ -158,10 +197,12 @@ Status check_one_output(const std::string& shown, const std::string& target, boo
 // body(fd) writes a new temporary file `tmp` beside path's target (links
 // followed); the caller renames it to `target`.  On failure no file is left.
 template <class Body>
-Status write_temp(const std::string& path, const Body& body, std::string& tmp, std::string& target) {
+Status write_temp(const std::string& path, const Body& body, std::string& tmp, std::string& target,
+                  std::vector<std::unique_ptr<ListedTemp>>& listed) {
   target = follow_links(path);
   if (Status s = check_one_output(path, target, false); !s) return s;
   tmp = temp_name(target);
+  listed.push_back(std::make_unique<ListedTemp>(tmp));
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
   Status s = body(fd);
@@ -188,7 +229,8 @@ Status rename_into_place(const std::string& path, const std::string& tmp, const 
 template <class Body>
 Status write_through_temp(const std::string& path, const Body& body) {
   std::string tmp, target;
-  if (Status s = write_temp(path, body, tmp, target); !s) return s;
+  std::vector<std::unique_ptr<ListedTemp>> listed;
+  if (Status s = write_temp(path, body, tmp, target, listed); !s) return s;
   return rename_into_place(path, tmp, target);
 }
 
@@ -197,6 +239,7 @@ Status write_through_temp(const std::string& path, const Body& body) {
 // leaves none of the new files (a TetGen .node/.ele/.face set).
 Status write_files_atomic(const std::vector<std::pair<std::string, std::string_view>>& files) {
   std::vector<std::string> tmps, targets;
+  std::vector<std::unique_ptr<ListedTemp>> listed;
   auto drop = [&](size_t from) {
     for (size_t k = from; k < tmps.size(); ++k) std::remove(tmps[k].c_str());
   };
@@ -206,7 +249,8 @@ Status write_files_atomic(const std::vector<std::pair<std::string, std::string_v
     const std::string_view bytes = file.second;
     std::string tmp, target;
     const Status s = write_temp(
-        file.first, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); }, tmp, target);
+        file.first, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); }, tmp, target,
+        listed);
     if (!s) {
       drop(0);
       return s;
@@ -267,6 +311,11 @@ Status check_output_path(const std::string& path) {
 }
 
 Status write_file_atomic(const std::string& path, std::string_view bytes) { return write_files_atomic({{path, bytes}}); }
+
+void remove_pending_temporaries() noexcept {
+  for (PendingTemp& p : g_pending)
+    if (p.ready.load()) ::unlink(p.path);
+}
 
 namespace {
 // A text file saved by some Windows editors starts with the UTF-8 byte order

@@ -102,6 +102,43 @@ check "folded input: summary says the input tet stays inverted" 'grep -q "no new
 check "folded input: summary does not claim no inverted tet" '! grep -q "no inverted tet" "$W/fold.out"'
 check "folded input: HTML verdict says the same" 'grep -q "1 input tets stay inverted or flat" "$W/fold.html"'
 
+# Signals while an output is being written: SIGTERM and SIGHUP end the
+# process as usual but remove the temporary file (OUT.tmp-PID-N was left
+# behind); Ctrl-C ends convert, quality and generate with exit 130 and
+# nothing written (it was ignored: exit 0).  A signal that comes after the
+# run ended tests nothing and is reported as such.
+"$T" generate "$W/sig.mesh" --cells 32 32 32 --jitter 0.3 > /dev/null
+/usr/bin/python3 - "$T" "$W" > "$W/sig.out" 2>&1 <<'PY'
+import os, signal, subprocess, sys, time
+T, W = os.path.abspath(sys.argv[1]), sys.argv[2]
+d = os.path.join(W, "sig"); os.makedirs(d)
+bad = 0
+def case(args, sig, want_rc):
+    global bad
+    for f in os.listdir(d): os.remove(os.path.join(d, f))
+    p = subprocess.Popen([T] + args, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    t0 = time.time()
+    def writing():  # a temporary file with bytes in it (the empty one is the start's folder probe)
+        try: return any(".tmp-" in f and os.path.getsize(os.path.join(d, f)) > 0 for f in os.listdir(d))
+        except OSError: return False
+    while p.poll() is None and not writing() and time.time() - t0 < 60:
+        time.sleep(0.0002)
+    if p.poll() is not None:
+        print("not tested (ended before its output was begun):", args[0], sig); p.wait(); return
+    p.send_signal(sig); rc = p.wait()
+    left = sorted(os.listdir(d))
+    ok = rc == want_rc and not any(".tmp-" in f for f in left) and (sig != signal.SIGINT or not left)
+    print("ok  " if ok else "BAD ", args[0], int(sig), "rc", rc, "left", left)
+    bad += not ok
+case(["improve", "../sig.mesh", "-o", "o.mesh", "--threads", "1", "-q"], signal.SIGTERM, -signal.SIGTERM)
+case(["convert", "../sig.mesh", "o.vtu"], signal.SIGHUP, -signal.SIGHUP)
+case(["convert", "../sig.mesh", "o.mesh"], signal.SIGINT, 130)
+sys.exit(bad)
+PY
+rc=$?
+check "signals while writing: no temporary file left, Ctrl-C exits 130 ($(tr '\n' ';' < "$W/sig.out"))" '[ $rc -eq 0 ]'
+
 # --allow-remove: vertices removed (none left unreferenced), the proof holds,
 # the worst alpha within 3% of the run without it on this mesh.  (Removal
 # takes only changes that raise a star's worst alpha, but the later passes
