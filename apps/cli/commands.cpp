@@ -128,8 +128,11 @@ std::string folder_of(const std::string& p) {
   return slash == 0 ? "/" : p.substr(0, slash);
 }
 // The same file: the same inode when both exist, else the same canonical
-// folder and name.
-bool same_file(const std::string& a, const std::string& b) {
+// folder and name of what a write to each would replace (a dangling link to
+// the other output, "ln -s ../o.mesh sub/x.vtu", let --field overwrite the
+// improved mesh).
+bool same_file(const std::string& a_path, const std::string& b_path) {
+  const std::string a = output_target(a_path), b = output_target(b_path);
   struct stat sa {}, sb {};
   const bool ea = ::stat(a.c_str(), &sa) == 0, eb = ::stat(b.c_str(), &sb) == 0;
   if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;

@@ -109,6 +109,11 @@ Status write_file_atomic(const std::string& path, std::string_view bytes);
 /// file keeps pointing at the rewritten file.
 Status check_output_path(const std::string& path);
 
+/// The file a write to path replaces: path with its symbolic links followed
+/// (a link that points nowhere gives the path it points to, which the write
+/// creates), or path itself when it names no link.
+std::string output_target(const std::string& path);
+
 /// Removes the temporary files of the writes in progress (in any thread):
 /// for a program's handler of SIGTERM, SIGHUP or SIGINT, which would
 /// otherwise leave them beside the outputs.  Only unlink(2), which is

@@ -312,6 +312,8 @@ Status check_output_path(const std::string& path) {
 
 Status write_file_atomic(const std::string& path, std::string_view bytes) { return write_files_atomic({{path, bytes}}); }
 
+std::string output_target(const std::string& path) { return follow_links(path); }
+
 void remove_pending_temporaries() noexcept {
   for (PendingTemp& p : g_pending)
     if (p.ready.load()) ::unlink(p.path);

@@ -139,6 +139,15 @@ PY
 rc=$?
 check "signals while writing: no temporary file left, Ctrl-C exits 130 ($(tr '\n' ';' < "$W/sig.out"))" '[ $rc -eq 0 ]'
 
+# Two outputs that are one file through a link that points nowhere yet:
+# refused with exit 1 (the field file used to replace the improved mesh,
+# exit 0).
+mkdir -p "$W/ln/sub" && ln -s ../o.mesh "$W/ln/sub/x.vtu" && ln -s r.json "$W/ln/l.json"
+"$T" improve "$W/box.mesh" -o "$W/ln/o.mesh" --field "$W/ln/sub/x.vtu" -q 2> "$W/ln/err1"; rc=$?
+check "dangling link to -o as --field: exit 1, nothing written" '[ $rc -eq 1 ] && [ ! -e "$W/ln/o.mesh" ] && grep -q "name the same file" "$W/ln/err1"'
+"$T" improve "$W/box.mesh" -o "$W/ln/x.mesh" --report "$W/ln/r.json" --html "$W/ln/l.json" -q 2> /dev/null; rc=$?
+check "dangling link to --report as --html: exit 1" '[ $rc -eq 1 ] && [ ! -e "$W/ln/r.json" ]'
+
 # --allow-remove: vertices removed (none left unreferenced), the proof holds,
 # the worst alpha within 3% of the run without it on this mesh.  (Removal
 # takes only changes that raise a star's worst alpha, but the later passes
