@@ -721,6 +721,64 @@ struct XmlAttr {
   std::string_view key, value;
 };
 
+// An attribute value with its references decoded (XML 1.0, sections 4.1
+// and 4.6: the five predefined entities and &#N; / &#xH; as UTF-8).  The
+// writer escapes names (xml_escape), so a name with '<', '&' or '"' grew on
+// every .vtu round trip before.  A reference that is none of these stays as
+// it is.
+std::string xml_unescape(std::string_view v) {
+  std::string r;
+  r.reserve(v.size());
+  for (size_t i = 0; i < v.size(); ++i) {
+    const size_t semi = v[i] == '&' ? v.find(';', i) : std::string_view::npos;
+    if (semi == std::string_view::npos || semi - i > 12) {
+      r += v[i];
+      continue;
+    }
+    const std::string_view ref = v.substr(i + 1, semi - i - 1);
+    const char* named = ref == "lt" ? "<" : ref == "gt" ? ">" : ref == "amp" ? "&" : ref == "quot" ? "\"" :
+                        ref == "apos" ? "'" : nullptr;
+    uint32_t cp = 0;
+    bool num = ref.size() > 1 && ref[0] == '#';
+    if (num) {
+      const bool hex = ref[1] == 'x';
+      const std::string_view digits = ref.substr(hex ? 2 : 1);
+      num = !digits.empty();
+      for (const char ch : digits) {
+        const int d = ch >= '0' && ch <= '9' ? ch - '0'
+                    : hex && ch >= 'a' && ch <= 'f' ? ch - 'a' + 10
+                    : hex && ch >= 'A' && ch <= 'F' ? ch - 'A' + 10 : -1;
+        if (d < 0 || cp > 0x10FFFF) { num = false; break; }
+        cp = cp * (hex ? 16 : 10) + static_cast<uint32_t>(d);
+      }
+      num = num && cp > 0 && cp <= 0x10FFFF && !(cp >= 0xD800 && cp <= 0xDFFF);
+    }
+    if (named) {
+      r += named;
+    } else if (num) {  // UTF-8 (RFC 3629)
+      if (cp < 0x80) {
+        r += static_cast<char>(cp);
+      } else if (cp < 0x800) {
+        r += static_cast<char>(0xC0 | (cp >> 6));
+        r += static_cast<char>(0x80 | (cp & 0x3F));
+      } else if (cp < 0x10000) {
+        r += static_cast<char>(0xE0 | (cp >> 12));
+        r += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        r += static_cast<char>(0x80 | (cp & 0x3F));
+      } else {
+        r += static_cast<char>(0xF0 | (cp >> 18));
+        r += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
+        r += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+        r += static_cast<char>(0x80 | (cp & 0x3F));
+      }
+    } else {
+      r.append(v.substr(i, semi - i + 1));
+    }
+    i = semi;
+  }
+  return r;
+}
+
 struct DataArrayInfo {
   std::string section;  // Points, Cells, PointData, CellData
   std::string name, type, format;
@@ -905,7 +963,7 @@ class VtuReader {
       } else if (tname == "DataArray") {
         DataArrayInfo d;
         d.section = stack.empty() ? std::string() : stack.back();
-        d.name = std::string(attr(attrs, "Name"));
+        d.name = xml_unescape(attr(attrs, "Name"));
         d.type = std::string(attr(attrs, "type"));
         d.format = std::string(attr(attrs, "format"));
         d.tag_pos = lt;

@@ -133,6 +133,37 @@ TEST(IoVtk, RoundTripEveryVariant) {
   }
 }
 
+TEST(IoVtk, VtuNamesWithXmlSpecialCharactersRoundTrip) {
+  // The writer escapes '<', '>', '&' and '"' in Name="..."; the reader took
+  // the escaped text as the name, so "T<1&x" became "T&lt;1&amp;x" and grew
+  // on every .vtu -> .vtu conversion.
+  TetMesh m = sample_mesh();
+  ASSERT_FALSE(m.point_fields.empty());
+  m.point_fields[0].name = "T<1&x>\"q\"";
+  for (Kind k : {Kind::VtuBinary, Kind::VtuAscii}) {
+    SCOPED_TRACE(kind_name(k));
+    std::string out, again;
+    ASSERT_TRUE(format_kind(m, out, k));
+    TetMesh r;
+    ASSERT_TRUE(parse_kind(out, r, k));
+    ASSERT_FALSE(r.point_fields.empty());
+    EXPECT_EQ(r.point_fields[0].name, m.point_fields[0].name);
+    ASSERT_TRUE(format_kind(r, again, k));
+    EXPECT_EQ(out, again);
+  }
+  // Character references and &apos; are decoded too; an unknown or broken
+  // reference stays as written.
+  std::string out;
+  ASSERT_TRUE(format_kind(m, out, Kind::VtuAscii));
+  const std::string escaped = "T&lt;1&amp;x&gt;&quot;q&quot;";
+  const size_t at = out.find(escaped);
+  ASSERT_NE(at, std::string::npos);
+  out.replace(at, escaped.size(), "&#65;&#x42;&apos;&#xE9;&#x1F600;&bogus;&#xD800;&;end&");
+  TetMesh r;
+  ASSERT_TRUE(parse_kind(out, r, Kind::VtuAscii));
+  EXPECT_EQ(r.point_fields[0].name, "AB'\xC3\xA9\xF0\x9F\x98\x80&bogus;&#xD800;&;end&");
+}
+
 TEST(IoVtk, WriteReadThroughFilesIsPositive) {
   const std::string dir = tmp_dir();
   const TetMesh m = sample_mesh();
