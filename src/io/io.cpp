@@ -410,6 +410,22 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
     add(std::count_if(m.gmsh_entities.begin(), m.gmsh_entities.end(),
                       [](const TetMesh::GmshEntity& e) { return e.physicals.size() > 1; }),
         "second physical groups of Gmsh entities", " entities");
+  // Names the format's syntax cannot hold as they are: the writers put '_'
+  // in place of the characters (a quoted Gmsh name ends at '"' or the line;
+  // a legacy VTK name at a blank).
+  if (gmsh)
+    add(std::count_if(m.physical_names.begin(), m.physical_names.end(),
+                      [](const PhysicalName& p) { return p.name.find_first_of("\"\n\r") != std::string::npos; }),
+        "physical names with '\"' or a line break as they are", "; written with '_' in their place");
+  if (f == Format::Vtk)
+    add(std::count_if(m.point_fields.begin(), m.point_fields.end(),
+                      [](const TetMesh::PointField& p) {
+                        return p.name.empty() ||
+                               std::any_of(p.name.begin(), p.name.end(), [](char c) {
+                                 return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
+                               });
+                      }),
+        "point data names with blanks (or empty) as they are", "; written with '_' in their place, 'field' if empty");
   if (!vtk && !m.point_fields.empty()) {
     std::string names;
     for (const TetMesh::PointField& p : m.point_fields) names += (names.empty() ? "" : ", ") + p.name;

@@ -603,6 +603,10 @@ TEST(IoFormats, DroppedByFormatNamesExactlyWhatTheFileLoses) {
   m.required_tris = {0, 1};
   m.ridges = {2};
   m.point_fields.push_back({"fixed", 1, true, std::vector<double>(m.nv(), 1.0)});
+  // Names a syntax cannot hold as they are (written with '_' instead).
+  m.point_fields.push_back({"a b", 1, false, std::vector<double>(m.nv(), 0.5)});
+  ASSERT_FALSE(m.physical_names.empty());
+  m.physical_names[0].name = "say \"hi\"";
   const fs::path d = fs::temp_directory_path() / ("tetopt_dropped_" + std::to_string(::getpid()));
   fs::create_directories(d);
   struct Case {
@@ -633,9 +637,11 @@ TEST(IoFormats, DroppedByFormatNamesExactlyWhatTheFileLoses) {
     EXPECT_EQ(named("required edges"), r.required_edges.empty());
     EXPECT_EQ(named("required triangles"), r.required_tris.empty());
     EXPECT_EQ(named("ridges"), r.ridges.empty());
-    EXPECT_EQ(named("physical names"), r.physical_names.empty());
+    EXPECT_EQ(named("physical names ("), r.physical_names.empty());
+    EXPECT_EQ(named("physical names with"), !r.physical_names.empty() && r.physical_names[0].name != m.physical_names[0].name);
     EXPECT_EQ(named("Gmsh elementary entity tags"), r.tet_entity != m.tet_entity || r.tri_entity != m.tri_entity);
-    EXPECT_EQ(named("point data arrays (fixed)"), r.point_fields.empty());
+    EXPECT_EQ(named("point data arrays (fixed, a b)"), r.point_fields.empty());
+    EXPECT_EQ(named("point data names with blanks"), r.point_fields.size() == 2 && r.point_fields[1].name != "a b");
   }
   fs::remove_all(d);
 }
