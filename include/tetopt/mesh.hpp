@@ -73,11 +73,14 @@ struct TetMesh {
     int tag = 0;
     std::vector<int32_t> physicals;
   };
-  /// Gmsh 4.1 $Entities as read (empty for other files).  The 4.1 writer
-  /// gives an entity it writes with the same dimension and tag these
-  /// physical tags back when the ref it writes is theirs (the first of them,
-  /// or the entity tag itself when there are none), so an entity in two
-  /// physical groups, or in none, stays so; otherwise it lists the ref.
+  /// Gmsh 4.1 $Entities as read; from a 2.2 file, the entities whose
+  /// elements all had physical tag 0 (in no group), with no physicals;
+  /// empty for other files.  The 4.1 writer gives an entity it writes with
+  /// the same dimension and tag these physical tags back when the ref it
+  /// writes is theirs (the first of them, or the entity tag itself when
+  /// there are none), so an entity in two physical groups, or in none, stays
+  /// so; otherwise it lists the ref.  The 2.2 writer writes physical tag 0
+  /// for an element of an entity in none whose ref is the entity tag.
   std::vector<GmshEntity> gmsh_entities;
   /// Gmsh elementary entity tags of tets / listed triangles (empty when the
   /// file has none); written back by the Gmsh writers.

@@ -94,6 +94,14 @@ class GmshReader {
     if (!have_elements_) return fail(ErrorCode::Parse, "no $Elements section");
     if (m_.tets.empty())
       return fail(ErrorCode::InvalidMesh, "no tetrahedra (a surface-only mesh? tetopt needs 4-node tets)");
+    // A 2.2 file's elements with physical tag 0 (in no physical group: what
+    // Gmsh writes when a model defines none) took their elementary tag as
+    // ref; their entities are listed without physical tags, so that the
+    // writers give them physical 0 (2.2) or none (4.1) back instead of
+    // making their ref a new physical group.  An entity whose elements
+    // disagree is not listed (the writers then write the ref).
+    for (const auto& [key, seen] : phys22_)
+      if (seen.zero && !seen.nonzero) m_.gmsh_entities.push_back({key.first, key.second, {}});
     return Status::success();
   }
 
@@ -109,6 +117,24 @@ class GmshReader {
   std::vector<int32_t> dense_;  // tag -> vertex id + 1 (0: unknown)
   std::unordered_map<int64_t, int32_t> sparse_;
   std::map<std::pair<int, int>, int32_t> entity_phys_;  // (dim, tag) -> first physical tag
+  // 2.2: whether the elements of (dim, elementary tag) had physical tag 0
+  // and / or another one (see run()).
+  struct Seen22 {
+    bool zero = false, nonzero = false;
+  };
+  std::map<std::pair<int, int>, Seen22> phys22_;
+  std::pair<int, int> last22_{-1, 0};
+  Seen22* last_seen22_ = nullptr;
+  void note22(int64_t type, int64_t phys, int64_t elem) {
+    if (elem < INT32_MIN || elem > INT32_MAX) return;  // add_element refuses it
+    const int dim = type == 15 ? 0 : type == 1 ? 1 : type == 2 ? 2 : 3;
+    const std::pair<int, int> key{dim, static_cast<int>(elem)};
+    if (!last_seen22_ || key != last22_) {
+      last_seen22_ = &phys22_[key];
+      last22_ = key;
+    }
+    (phys == 0 ? last_seen22_->zero : last_seen22_->nonzero) = true;
+  }
   std::set<std::pair<int, int>> entities_;              // (dim, tag) listed in $Entities
   bool have_entities_ = false;                          // a $Entities section was read
 
@@ -513,6 +539,7 @@ class GmshReader {
           if (Status s = int_tok(nodes[j], "a node tag"); !s) return s;
         const int64_t phys = ntags >= 1 ? tags[0] : 0, elem = ntags >= 2 ? tags[1] : 0;
         if (Status s = add_element(etag, type, nodes, phys != 0 ? phys : elem, elem); !s) return s;
+        if (ntags >= 2) note22(type, phys, elem);
       }
     } else {
       int64_t done = 0;
@@ -531,6 +558,7 @@ class GmshReader {
           for (int j = 0; j < k; ++j) nodes[j] = i32();
           const int64_t phys = ntags >= 1 ? tags[0] : 0, elem = ntags >= 2 ? tags[1] : 0;
           if (Status s = add_element(etag, type, nodes, phys != 0 ? phys : elem, elem); !s) return s;
+          if (ntags >= 2) note22(type, phys, elem);
         }
         done += cnt;
       }
@@ -680,19 +708,19 @@ class GmshWriter {
     header(1, static_cast<int64_t>(ne));
     for (size_t i = 0; i < ne; ++i) {
       const int32_t r = edge_ref(i);
-      element(1, r, std::max(r, 0), &m_.edges[2 * i], 2);
+      element(1, phys22(1, std::max(r, 0), r), std::max(r, 0), &m_.edges[2 * i], 2);
     }
     header(2, ntri);
     for (int32_t i = 0; i < ntri; ++i) {
-      const int32_t r = tri_ref(i);
-      element(2, r, elementary(m_.tri_entity, ntri, i, r), &m_.tris[3 * static_cast<size_t>(i)], 3);
+      const int32_t r = tri_ref(i), e = elementary(m_.tri_entity, ntri, i, r);
+      element(2, phys22(2, e, r), e, &m_.tris[3 * static_cast<size_t>(i)], 3);
     }
     header(4, nt);
     for (int32_t t = 0; t < nt; ++t) {
       int32_t v[4];
       detail::file_tet(m_, t, Format::Gmsh, v);
-      const int32_t r = tet_ref(t);
-      element(4, r, elementary(m_.tet_entity, nt, t, r), v, 4);
+      const int32_t r = tet_ref(t), e = elementary(m_.tet_entity, nt, t, r);
+      element(4, phys22(3, e, r), e, v, 4);
     }
     if (binary_) out_ += '\n';
     out_ += "$EndElements\n";
@@ -711,7 +739,10 @@ class GmshWriter {
     // Entities: one per distinct (dim, entity tag, ref); element runs of the
     // same entity become blocks, so the element order survives.  Every
     // entity lists exactly one physical tag, its ref (0 included: gmsh keeps
-    // physical 0 in 4.1, and meshio needs a physical tag on every block).
+    // physical 0 in 4.1, and meshio needs a physical tag on every block),
+    // except where the file read said otherwise (physicals_of): an entity in
+    // two groups, or in none; a file with no physical tag at all gets none
+    // back, points included (meshio reads a file where no block has one).
     const int32_t nt = m_.nt(), ntri = m_.ntri();
     const int32_t ne = static_cast<int32_t>(m_.edges.size() / 2), nc = static_cast<int32_t>(m_.corners.size());
     std::vector<Entity> ents;
@@ -720,7 +751,7 @@ class GmshWriter {
       Entity e;
       e.dim = 0;
       e.tag = i + 1;
-      e.phys = {0};
+      if (!no_physicals_read()) e.phys = {0};
       grow(e, m_.corners[static_cast<size_t>(i)]);
       ents.push_back(e);
       blocks.push_back({0, 15, e.tag, i, 1});
@@ -948,6 +979,34 @@ class GmshWriter {
     return {r};
   }
   std::map<std::pair<int, int>, const std::vector<int32_t>*> read_ents_;
+  /// 2.2: the physical tag of an element with ref r in entity (dim, tag):
+  /// 0 when the file read had that entity in no physical group and r is its
+  /// tag (the reader's ref), else r.
+  int32_t phys22(int dim, int tag, int32_t r) {
+    if (m_.gmsh_entities.empty()) return r;
+    if (dim != p22_dim_ || tag != p22_tag_) {  // runs of one entity: one lookup
+      p22_dim_ = dim;
+      p22_tag_ = tag;
+      p22_none_ = physicals_of(dim, tag, tag).empty();
+    }
+    return p22_none_ && r == tag ? 0 : r;
+  }
+  int p22_dim_ = -1, p22_tag_ = 0;
+  bool p22_none_ = false;
+  /// Whether an entity of dimension dim in the file read was in physical
+  /// group p.
+  bool physical_read(int dim, int32_t p) const {
+    return std::any_of(m_.gmsh_entities.begin(), m_.gmsh_entities.end(), [&](const TetMesh::GmshEntity& g) {
+      return g.dim == dim && std::find(g.physicals.begin(), g.physicals.end(), p) != g.physicals.end();
+    });
+  }
+  /// Whether the file read listed entities and none of them had a physical
+  /// tag (4.1: its points then get none either).
+  bool no_physicals_read() const {
+    return !m_.gmsh_entities.empty() &&
+           std::all_of(m_.gmsh_entities.begin(), m_.gmsh_entities.end(),
+                       [](const TetMesh::GmshEntity& g) { return g.physicals.empty(); });
+  }
 
   /// Gives each element of one dimension an entity tag: its own entity tag
   /// when it has one (else its ref when positive), unless that tag already
@@ -990,6 +1049,11 @@ class GmshWriter {
         // would drop the edge's group.
         e.phys = have_given && (*given)[static_cast<size_t>(i)] == tag ? physicals_of(dim, tag, r)
                                                                         : std::vector<int32_t>{r};
+        // An edge (no entity tags kept: its entity tag is its ref) whose
+        // curve the file read had in no physical group keeps none, unless
+        // another curve of that file was in physical group r (the ref may
+        // be that group's: both read as r).
+        if (!given && tag == r && physicals_of(dim, tag, r).empty() && !physical_read(dim, r)) e.phys.clear();
         ents.push_back(e);
         ei = ents.size() - 1;
         key_to_ent[key] = ei;

@@ -241,6 +241,60 @@ TEST(IoGmsh, Msh41EntityPhysicalTagsAndParametricNodes) {
 // read and a write (ASCII and binary): the writer listed only the ref, so
 // the second group lost its tets and the entity without a group got one.
 // An entity whose tets the writer gives another ref lists that ref.
+// A model without physical groups: Gmsh writes physical tag 0 (2.2) or no
+// physical tags (4.1) on every element.  The refs are then the elementary
+// tags, and the writers made them physical groups (0 -> 1..6 on a box's
+// faces: meshcheck saw every boundary triangle lose its tag, and meshio could
+// not read the 4.1 output, some blocks having a physical tag and some not).
+TEST(IoGmsh, FileWithoutPhysicalGroupsGetsNoneBack) {
+  const std::string v22 =
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n"
+      "$Nodes\n5\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n$EndNodes\n"
+      "$Elements\n6\n1 15 2 0 1 1\n2 1 2 0 3 1 2\n3 2 2 0 4 1 2 3\n4 2 2 0 5 2 3 4\n"
+      "5 4 2 0 1 1 2 3 4\n6 4 2 0 2 2 3 4 5\n$EndElements\n";
+  TetMesh m;
+  Status s = parse(v22, m);
+  ASSERT_TRUE(s) << s.message;
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{1, 2}));  // regions: the elementary volumes
+  EXPECT_EQ(m.tri_ref, (std::vector<int32_t>{4, 5}));
+  for (bool binary : {false, true}) {
+    SCOPED_TRACE(binary ? "binary" : "ascii");
+    std::string o22, o41;
+    ASSERT_TRUE(format_gmsh(m, o22, 22, binary));
+    ASSERT_TRUE(format_gmsh(m, o41, 41, binary));
+    if (!binary) {
+      EXPECT_EQ(o22, v22);  // physical 0 and the elementary tags, as read
+    }
+    for (const std::string* out : {&o22, &o41}) {
+      TetMesh r;
+      s = parse(*out, r);
+      ASSERT_TRUE(s) << s.message;
+      EXPECT_EQ(r.tet_ref, m.tet_ref);
+      EXPECT_EQ(r.tri_ref, m.tri_ref);
+      EXPECT_EQ(r.edge_ref, m.edge_ref);
+      for (const TetMesh::GmshEntity& e : r.gmsh_entities)
+        EXPECT_TRUE(e.physicals.empty()) << "dim " << e.dim << " tag " << e.tag;
+    }
+    // From 4.1 back to 4.1: points and curves without a physical tag too.
+    TetMesh r41;
+    ASSERT_TRUE(parse(o41, r41));
+    std::string again;
+    ASSERT_TRUE(format_gmsh(r41, again, 41, binary));
+    TetMesh r2;
+    ASSERT_TRUE(parse(again, r2));
+    ASSERT_FALSE(r2.gmsh_entities.empty());
+    for (const TetMesh::GmshEntity& e : r2.gmsh_entities)
+      EXPECT_TRUE(e.physicals.empty()) << "dim " << e.dim << " tag " << e.tag;
+  }
+  // Elements of one entity with and without a physical tag: not listed as
+  // "in none"; the ref is written as before.
+  std::string mixed = v22;
+  mixed.replace(mixed.find("\n4 2 2 0 5"), 10, "\n4 2 2 9 4");
+  TetMesh mx;
+  ASSERT_TRUE(parse(mixed, mx));
+  for (const TetMesh::GmshEntity& e : mx.gmsh_entities) EXPECT_FALSE(e.dim == 2 && e.tag == 4);
+}
+
 TEST(IoGmsh, Msh41EntityPhysicalListsSurviveARoundTrip) {
   const std::string text =
       "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
