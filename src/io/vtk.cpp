@@ -669,9 +669,15 @@ Status format_vtk(const TetMesh& m, std::string& out, bool binary) {
     }
   });
   if (binary) out += '\n';
+  // The refs as a one-component FIELD array: meshio 5.0 reads SCALARS as
+  // arrays of shape (n, 1), which tools that look for a 1-D integer cell
+  // array (meshcheck among them) do not take as tags: a two-region mesh
+  // read back from our .vtk had lost its regions and interface for them.
   out += "CELL_DATA ";
   gvscan::put_int(out, ncells);
-  out += "\nSCALARS ref int 1\nLOOKUP_TABLE default\n";
+  out += "\nFIELD FieldData 1\nref 1 ";
+  gvscan::put_int(out, ncells);
+  out += " int\n";
   for_each_cell(m, Format::Vtk, [&](int, const int32_t*, int, int32_t ref) {
     if (binary) {
       gvscan::store<int32_t>(out, ref, true);
