@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 
 namespace tetopt_cli {
 
@@ -81,6 +82,9 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
   using R = ImproveArgsResult;
   const std::string cmd = names.command + ": ";
   bool options_end = false;  // after "--": file names only (one may start with '-')
+  // The value each option took: one given twice with two values is an error
+  // (the last one silently won: "-o a.mesh -o b.vtu" wrote only b.vtu).
+  std::map<std::string, std::string> given;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& o = args[i];
     if (!options_end && o == "--") {
@@ -102,6 +106,12 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
         return false;
       }
       v = args[++i];
+      const std::string key = o == "-o" ? "--output" : o;
+      if (const auto it = given.find(key); it != given.end() && it->second != v) {
+        err = cmd + o + " given twice ('" + it->second + "', then '" + v + "')";
+        return false;
+      }
+      given[key] = v;
       return true;
     };
     auto number = [&](double& d) {

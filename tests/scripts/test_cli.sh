@@ -148,6 +148,14 @@ check "dangling link to -o as --field: exit 1, nothing written" '[ $rc -eq 1 ] &
 "$T" improve "$W/box.mesh" -o "$W/ln/x.mesh" --report "$W/ln/r.json" --html "$W/ln/l.json" -q 2> /dev/null; rc=$?
 check "dangling link to --report as --html: exit 1" '[ $rc -eq 1 ] && [ ! -e "$W/ln/r.json" ]'
 
+# An option given twice with two values: exit 1 naming both (the last one
+# silently won); the same value twice is accepted.
+"$T" improve "$W/box.mesh" -o "$W/tw1.mesh" -o "$W/tw2.vtu" -q 2> "$W/err"; rc=$?
+check "-o given twice: exit 1, both values named, nothing written" \
+  '[ $rc -eq 1 ] && grep -q "given twice" "$W/err" && [ ! -e "$W/tw1.mesh" ] && [ ! -e "$W/tw2.vtu" ]'
+"$T" improve "$W/box.mesh" -o "$W/tw3.mesh" --threads 1 --threads 1 -q; rc=$?
+check "the same value twice is accepted" '[ $rc -eq 0 ] && [ -s "$W/tw3.mesh" ]'
+
 # --allow-remove: vertices removed (none left unreferenced), the proof holds,
 # the worst alpha within 3% of the run without it on this mesh.  (Removal
 # takes only changes that raise a star's worst alpha, but the later passes
