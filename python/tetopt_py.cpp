@@ -594,7 +594,11 @@ py::tuple quality_mesh(const py::dict& d, bool diagnose, double threshold) {
 std::string path_str(const py::handle& p) {
   py::object fs = py::module_::import("os").attr("fspath")(p);
   if (!py::isinstance<py::str>(fs)) throw py::value_error("path: expected a str or os.PathLike of str");
-  return fs.cast<std::string>();
+  std::string s = fs.cast<std::string>();
+  // The C library would stop at the byte: the message named a shorter path.
+  if (const size_t nul = s.find('\0'); nul != std::string::npos)
+    throw py::value_error("path: contains a NUL character (after '" + s.substr(0, nul) + "')");
+  return s;
 }
 
 py::tuple read_file(const py::handle& path) {

@@ -305,3 +305,11 @@ def test_arrays_in_either_byte_order_give_the_same_result(tmp_path):
     tetopt.write(str(tmp_path / "swapped.mesh"),
                  tetopt.Mesh(P.astype(swapped + "f8"), T.astype(swapped + "i4"), refs.astype(swapped + "i4")))
     assert (tmp_path / "native.mesh").read_bytes() == (tmp_path / "swapped.mesh").read_bytes()
+
+
+def test_path_with_a_nul_character_is_named(tmp_path):
+    # The message used to be the path up to the NUL, as if that file were bad.
+    with pytest.raises(ValueError, match="NUL"):
+        tetopt.read(str(tmp_path / "a.mesh") + "\0x")
+    with pytest.raises(ValueError, match="NUL"):
+        tetopt.write(str(tmp_path / "a.mesh") + "\0x", tetopt.Mesh(P, T))
