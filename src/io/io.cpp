@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <fcntl.h>
@@ -325,6 +326,17 @@ namespace {
 // keyword.  The .msh and .vtk headers are text even in their binary variants;
 // .meshb is binary from its first byte and keeps its bytes.
 bool has_utf8_bom(std::string_view b) { return b.size() >= 3 && b.substr(0, 3) == "\xEF\xBB\xBF"; }
+
+// A text file whose lines end with CR alone (classic Mac OS): no LF at all
+// and some CR.  The readers count lines at LF, so every error named line 1
+// (Medit) or the header looked empty (VTK, TetGen).  Such a file is read
+// with its CRs made LFs (a copy; a binary file with no LF byte in it and
+// its header lines ended by CR would be refused anyway).
+bool cr_only(std::string_view b) {
+  return !b.empty() && std::memchr(b.data(), '\n', b.size()) == nullptr &&
+         std::memchr(b.data(), '\r', b.size()) != nullptr;
+}
+void cr_to_lf(std::string& s) { std::replace(s.begin(), s.end(), '\r', '\n'); }
 }  // namespace
 
 Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
@@ -344,8 +356,10 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
       struct stat fst {};
       if (::stat((base + ".face").c_str(), &fst) == 0)  // optional; anything but a file is an error
         if (s = read_file_bytes(base + ".face", face); !s) return s;
-      for (std::string* text : {&data, &ele, &face})
+      for (std::string* text : {&data, &ele, &face}) {
         if (has_utf8_bom(*text)) text->erase(0, 3);
+        if (cr_only(*text)) cr_to_lf(*text);
+      }
       s = parse_tetgen(data, ele, face, base, m);
       break;
     }
@@ -359,6 +373,12 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
         bytes = data;
       }
       if (f != Format::MeditBinary && has_utf8_bom(bytes)) bytes.remove_prefix(3);
+      std::string lf;
+      if (f != Format::MeditBinary && cr_only(bytes)) {
+        lf.assign(bytes);
+        cr_to_lf(lf);
+        bytes = lf;
+      }
       if (f == Format::Medit) s = parse_medit(bytes, path, m, threads);
       else if (f == Format::MeditBinary) s = parse_meditb(bytes, path, m);
       else if (f == Format::Gmsh) s = parse_gmsh(bytes, path, m);

@@ -134,6 +134,40 @@ TEST_F(Hostile, Utf8ByteOrderMarkIsSkippedInTextFormats) {
   }
 }
 
+// A text file whose lines end with CR alone (classic Mac OS) reads as the
+// same mesh, and an error names its true line: Medit said line 1 for every
+// error, VTK and TetGen read an empty header.
+TEST_F(Hostile, CarriageReturnLineEndsReadAsLines) {
+  const TetMesh box = make_box_mesh({.nx = 2, .ny = 2, .nz = 1, .jitter = 0.2, .regions = 2});
+  for (const char* ext : {".mesh", ".msh", ".vtk", ".vtu", ".node"}) {
+    SCOPED_TRACE(ext);
+    const std::string plain = (dir_ / (std::string("plain") + ext)).string();
+    ASSERT_TRUE(write_mesh(plain, box));
+    TetMesh want, got;
+    ASSERT_TRUE(read_mesh(plain, want));
+    const bool tetgen = std::string(ext) == ".node";
+    for (const char* part : tetgen ? std::vector<const char*>{".node", ".ele", ".face"} : std::vector<const char*>{ext}) {
+      std::string bytes;
+      ASSERT_TRUE(read_file_bytes((dir_ / (std::string("plain") + part)).string(), bytes));
+      std::replace(bytes.begin(), bytes.end(), '\n', '\r');
+      put(std::string("cr") + part, bytes);
+    }
+    const Status s = read_mesh((dir_ / (std::string("cr") + ext)).string(), got);
+    ASSERT_TRUE(s) << s.message;
+    EXPECT_EQ(got.xyz, want.xyz);
+    EXPECT_EQ(got.tets, want.tets);
+    EXPECT_EQ(got.tet_ref, want.tet_ref);
+    EXPECT_EQ(got.tris, want.tris);
+  }
+  // Line 13 of this Medit file (the second tet) names vertex 9 of 5.
+  std::string bad = two_tets_medit();
+  bad.replace(bad.find("2 4 3 5 1"), 9, "2 4 3 9 1");
+  std::replace(bad.begin(), bad.end(), '\n', '\r');
+  const Status s = read_err(put("bad.mesh", bad));
+  EXPECT_FALSE(s.ok());
+  EXPECT_TRUE(mentions(s, "bad.mesh:13:")) << s.message;
+}
+
 TEST_F(Hostile, TruncatedTetGen) {
   const std::string node = "4 3 0 0\n1 0 0 0\n2 1 0 0\n3 0 1 0\n";  // says 4, gives 3
   put("t.node", node);
