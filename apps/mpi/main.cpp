@@ -35,6 +35,7 @@
 #include <thread>
 #include <vector>
 
+#include "../cli/cli.hpp"
 #include "../cli/hugepages.hpp"
 #include "../cli/improve_args.hpp"
 #include "detail/parallel.hpp"
@@ -408,10 +409,16 @@ int leader(const Args& a, int size) {
     MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
     return code;
   };
-  // The outputs can be written (as in tetopt improve), checked before any work.
-  for (const std::string* out : {&a.out, &a.report})
-    if (const Status c = out->empty() ? Status::success() : check_output_path(*out); !c)
-      return give_up(c.message, kExitOutput);
+  // The files are distinct and the outputs can be written (as in tetopt
+  // improve), checked before any work: "--report IN" replaced the input
+  // mesh with the report, and "--report OUT" the improved mesh.
+  if (const int rc = tetopt_cli::check_paths("tetopt-mpi", {{"IN", a.in}, {"-o", a.out}, {"--report", a.report}}, true);
+      rc != kExitOk) {
+    stop_workers(size);
+    int zero = 0, all = 0;
+    MPI_Reduce(&zero, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
+    return rc;
+  }
   TetMesh g;
   // As in tetopt improve (worth_sorting, --reorder-above, --keep-order),
   // the tets of a large mesh in no spatial order are put in Morton order of

@@ -74,6 +74,14 @@ $MPIRUN "$M" improve "$W/in.mesh" -o "$W/y.mesh" --report "$W/adir.json" -q 2> "
 check "--report naming a folder: exit 4, no output written" '[ $rm_ -eq 4 ] && [ ! -e "$W/y.mesh" ] && grep -q "is a folder" "$W/em"'
 $MPIRUN "$M" improve "$W/in.mesh" -o "$W/no/such/y.mesh" -q 2> "$W/em" > /dev/null < /dev/null; rm_=$?
 check "-o into a missing folder: exit 4" '[ $rm_ -eq 4 ] && grep -q "no such folder" "$W/em"'
+# Files that are one: refused with exit 1 before any work, as in tetopt
+# improve ("--report IN" replaced the input mesh with the report).
+cp "$W/in.mesh" "$W/keep.mesh"
+$MPIRUN "$M" improve "$W/in.mesh" -o "$W/z.mesh" --report "$W/in.mesh" -q 2> "$W/em" > /dev/null < /dev/null; rm_=$?
+check "--report IN: exit 1, IN intact, nothing written" \
+  '[ $rm_ -eq 1 ] && cmp -s "$W/in.mesh" "$W/keep.mesh" && [ ! -e "$W/z.mesh" ] && grep -q "name the same file" "$W/em"'
+$MPIRUN "$M" improve "$W/in.mesh" -o "$W/z.mesh" --report "$W/z.mesh" -q 2> "$W/em" > /dev/null < /dev/null; rm_=$?
+check "--report OUT: exit 1, nothing written" '[ $rm_ -eq 1 ] && [ ! -e "$W/z.mesh" ]'
 # tetopt-mpi's own options are its own.
 "$T" improve "$W/in.mesh" -o "$W/x.mesh" --rounds 2 2> "$W/et" > /dev/null; rt=$?
 check "tetopt improve rejects --rounds (tetopt-mpi only)" '[ $rt -eq 1 ] && grep -q "unknown option" "$W/et"'
