@@ -1855,30 +1855,28 @@ bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
     if (!moved) h *= 0.5;
   }
   if (!(f > f0)) return false;
-  if (const double keep = q.options().alpha_keep; keep > 0) {
-    AlphaTally before, after;
+  // fn(tet, its four points with v at y) for every tet of v's star.
+  auto star_at_position = [&](const double* y, auto fn) {
     for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
       const int32_t* tv = m.tet(*it);
       const double* p[4];
-      for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? x : m.point(tv[k]);
-      before.add(tet_alpha(m, *it), keep);
-      after.add(alpha(p[0], p[1], p[2], p[3]), keep);
+      for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? y : m.point(tv[k]);
+      fn(*it, p);
     }
+  };
+  if (const double keep = q.options().alpha_keep; keep > 0) {
+    AlphaTally before, after;
+    star_at_position(x, [&](int32_t t, const double* const* p) {
+      before.add(tet_alpha(m, t), keep);
+      after.add(alpha(p[0], p[1], p[2], p[3]), keep);
+    });
     if (!keeps_alpha(before, after, keep)) return false;
   }
   if (const double keep = q.options().angle_keep; keep > 0) {
     AngleTally before, after;
-    for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
-      const int32_t* tv = m.tet(*it);
-      const double* p[4];
-      for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? x : m.point(tv[k]);
-      after.add(p[0], p[1], p[2], p[3], keep);
-    }
+    star_at_position(x, [&](int32_t, const double* const* p) { after.add(p[0], p[1], p[2], p[3], keep); });
     if (after.above > 0) {  // else the rule holds whatever the star was
-      for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
-        const int32_t* tv = m.tet(*it);
-        before.add(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3]), keep);
-      }
+      star_at_position(m.point(v), [&](int32_t, const double* const* p) { before.add(p[0], p[1], p[2], p[3], keep); });
       if (!keeps_angle(before, after, keep)) return false;
     }
   }
