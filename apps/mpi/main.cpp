@@ -26,6 +26,7 @@
 #include <algorithm>
 #include <chrono>
 #include <climits>
+#include <csignal>
 #include <limits>
 #include <cmath>
 #include <cstdio>
@@ -772,12 +773,21 @@ int leader(const Args& a, int size) {
   return kExitOk;
 }
 
+// SIGTERM / SIGHUP / SIGINT (mpirun passes them on): the temporary files of
+// rank 0's writes in progress are removed, then the signal's default action.
+void on_terminating_signal(int sig) {
+  remove_pending_temporaries();
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   tetopt_cli::reexec_with_huge_pages(argv);  // before MPI starts (same process id)
   tetopt_cli::keep_freed_memory();
   MPI_Init(&argc, &argv);
+  for (const int sig : {SIGTERM, SIGHUP, SIGINT}) std::signal(sig, on_terminating_signal);
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
