@@ -196,7 +196,7 @@ Status check_ref_arrays(const std::vector<Array>& cell, const std::string& name)
       std::snprintf(buf, sizeof buf, "%.17g", v);
       return Status::error(ErrorCode::InvalidMesh, name + ": cell array " + a.name + " holds " + buf + " at cell " +
                                                        std::to_string(c) +
-                                                       "; refs are whole numbers that fit in 32 bits");
+                                                       " (ids from 0); refs are whole numbers that fit in 32 bits");
     }
   }
   return Status::success();
@@ -232,29 +232,29 @@ Status build_mesh(Grid& g, const std::string& name, TetMesh& m) {
   for (size_t v = 0; v < g.xyz.size(); ++v)
     if (!std::isfinite(g.xyz[v]))
       return Status::error(ErrorCode::InvalidMesh,
-                           name + ": point " + std::to_string(v / 3) + " has a NaN or infinite coordinate");
+                           name + ": point " + std::to_string(v / 3) + " (ids from 0) has a NaN or infinite coordinate");
   std::vector<int8_t> kind(nc);
   std::vector<int32_t> pos(nc);
   for (size_t c = 0; c < nc; ++c) {
     const int64_t t = g.types[c];
     const int k = cell_nodes(t);
     if (k == 0)
-      return Status::error(ErrorCode::Unsupported, name + ": cell " + std::to_string(c) + " has VTK cell type " +
+      return Status::error(ErrorCode::Unsupported, name + ": cell " + std::to_string(c) + " (ids from 0) has VTK cell type " +
                                                        std::to_string(t) + " (" + cell_type_name(t) +
                                                        "), which is not supported: tetopt reads tetrahedra (10), "
                                                        "triangles (5), lines (3) and vertices (1)");
     const int64_t b = g.offsets[c], e = g.offsets[c + 1];
     if (b < 0 || e < b || e > static_cast<int64_t>(g.conn.size()))
-      return Status::error(ErrorCode::Parse, name + ": cell " + std::to_string(c) + " has a bad offset");
+      return Status::error(ErrorCode::Parse, name + ": cell " + std::to_string(c) + " (ids from 0) has a bad offset");
     if (e - b != k)
-      return Status::error(ErrorCode::Parse, name + ": cell " + std::to_string(c) + " of type " + std::to_string(t) +
+      return Status::error(ErrorCode::Parse, name + ": cell " + std::to_string(c) + " (ids from 0) of type " + std::to_string(t) +
                                                  " (" + cell_type_name(t) + ") lists " + std::to_string(e - b) +
                                                  " points instead of " + std::to_string(k));
     int32_t v[4];
     for (int j = 0; j < k; ++j) {
       const int64_t p = g.conn[static_cast<size_t>(b + j)];
       if (p < 0 || p >= nv)
-        return Status::error(ErrorCode::InvalidMesh, name + ": cell " + std::to_string(c) + " names point " +
+        return Status::error(ErrorCode::InvalidMesh, name + ": cell " + std::to_string(c) + " (ids from 0) names point " +
                                                          std::to_string(p) + ", outside 0.." + std::to_string(nv - 1));
       v[j] = static_cast<int32_t>(p);
     }
