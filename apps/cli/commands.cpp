@@ -1,12 +1,14 @@
 // tetopt quality / convert, and the helpers every command shares.
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <new>
 
 #include <sys/stat.h>
 
@@ -103,9 +105,14 @@ bool has_value(const std::vector<std::string>& args, size_t i, const std::string
 
 bool parse_int(const std::string& opt, const std::string& v, long long& out) {
   char* end = nullptr;
+  errno = 0;
   out = std::strtoll(v.c_str(), &end, 10);
   if (v.empty() || *end != '\0') {
     std::fprintf(stderr, "tetopt: %s expects an integer, got '%s'\n", opt.c_str(), v.c_str());
+    return false;
+  }
+  if (errno == ERANGE) {  // strtoll saturated: 99999999999999999999 read as 2^63 - 1
+    std::fprintf(stderr, "tetopt: %s: '%s' is out of range\n", opt.c_str(), v.c_str());
     return false;
   }
   return true;
@@ -365,6 +372,7 @@ int cmd_generate(const std::vector<std::string>& args) {
       o.jitter = d;
     } else if (a == "--seed") {
       if (!has_value(args, i, a) || !parse_int(a, args[++i], v)) return kExitUsage;
+      if (v < 0) { std::fputs("tetopt generate: --seed must be a whole number from 0 on\n", stderr); return kExitUsage; }
       o.seed = static_cast<uint64_t>(v);
     } else if (a == "--regions") {
       if (!has_value(args, i, a) || !parse_int(a, args[++i], v)) return kExitUsage;
@@ -377,7 +385,20 @@ int cmd_generate(const std::vector<std::string>& args) {
     else { std::fprintf(stderr, "tetopt generate: unexpected argument '%s'\n", a.c_str()); return kExitUsage; }
   }
   if (out.empty()) { std::fputs(kGenerateHelp, stderr); return kExitUsage; }
-  TetMesh m = make_box_mesh(o);
+  const double tets = 6.0 * o.nx * o.ny * o.nz;
+  if (tets > 2147483647.0) {
+    std::fprintf(stderr, "tetopt generate: %d x %d x %d cells make %.0f tets, more than 2^31 - 1 (tet ids are 32-bit)\n",
+                 o.nx, o.ny, o.nz, tets);
+    return kExitUsage;
+  }
+  TetMesh m;
+  try {
+    m = make_box_mesh(o);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "tetopt generate: out of memory for %.0f tets (about %.1f GB); nothing written\n", tets,
+                 tets * 60e-9);
+    return kExitOutput;
+  }
   Status s = write_mesh(out, m);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
   return kExitOk;

@@ -19,7 +19,9 @@ struct BoxMeshOptions {
 /// is conforming across cubes).  Jitter moves only vertices strictly inside the
 /// box (and off the region interface), and any move that would invert a tet is
 /// undone, so the result is always valid.  Boundary triangles are listed with
-/// ref 1.  Topology is not built.
+/// ref 1.  Topology is not built.  Throws std::invalid_argument when a
+/// count is below 1 or the mesh would have more than 2^31 - 1 tets (ids
+/// are 32-bit).
 TetMesh make_box_mesh(const BoxMeshOptions& opt);
 
 }  // namespace tetopt

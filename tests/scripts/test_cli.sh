@@ -156,6 +156,16 @@ check "-o given twice: exit 1, both values named, nothing written" \
 "$T" improve "$W/box.mesh" -o "$W/tw3.mesh" --threads 1 --threads 1 -q; rc=$?
 check "the same value twice is accepted" '[ $rc -eq 0 ] && [ -s "$W/tw3.mesh" ]'
 
+# generate: a box beyond 32-bit tet ids is refused before any allocation
+# (1300^3 cells aborted with std::length_error); a seed out of range is
+# refused, not saturated.
+"$T" generate "$W/huge.mesh" --cells 1300 1300 1300 2> "$W/err"; rc=$?
+check "generate beyond 2^31 - 1 tets: exit 1, says why" '[ $rc -eq 1 ] && grep -q "32-bit" "$W/err" && [ ! -e "$W/huge.mesh" ]'
+"$T" generate "$W/s.mesh" --cells 2 2 2 --seed 99999999999999999999999 2> "$W/err"; rc=$?
+check "generate --seed out of range: exit 1" '[ $rc -eq 1 ] && grep -q "out of range" "$W/err"'
+"$T" generate "$W/s.mesh" --cells 2 2 2 --seed -5 2> /dev/null; rc=$?
+check "generate --seed -5: exit 1" '[ $rc -eq 1 ]'
+
 # --allow-remove: vertices removed (none left unreferenced), the proof holds,
 # the worst alpha within 3% of the run without it on this mesh.  (Removal
 # takes only changes that raise a star's worst alpha, but the later passes

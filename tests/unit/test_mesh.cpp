@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "tetopt/generate.hpp"
 #include "tetopt/invariants.hpp"
@@ -23,6 +24,15 @@ TetMesh two_tets() {
   return m;
 }
 }  // namespace
+
+TEST(Mesh, BoxTooLargeForIdsOrEmptyIsRefused) {
+  // 1300^3 cells overflowed the int32 vertex count and reached resize()
+  // negative (std::length_error, an abort in tetopt generate).
+  EXPECT_THROW(make_box_mesh({.nx = 1300, .ny = 1300, .nz = 1300}), std::invalid_argument);
+  EXPECT_THROW(make_box_mesh({.nx = 700, .ny = 700, .nz = 731}), std::invalid_argument);  // 2,149,140,000 tets
+  EXPECT_THROW(make_box_mesh({.nx = 0, .ny = 4, .nz = 4}), std::invalid_argument);
+  EXPECT_NO_THROW(make_box_mesh({.nx = 1, .ny = 1, .nz = 1}));
+}
 
 TEST(Mesh, BoxTopologyIsValid) {
   TetMesh m = make_box_mesh({.nx = 3, .ny = 4, .nz = 5});
