@@ -450,8 +450,9 @@ tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
     throw py::value_error("weight: must satisfy 0.5 <= weight < 1, got " + py::repr(py::float_(p.weight)).cast<std::string>());
   if (!(p.threshold > 0 && p.threshold <= 1))
     throw py::value_error("threshold: must be in (0, 1], got " + py::repr(py::float_(p.threshold)).cast<std::string>());
-  if (p.iterations < 0 || p.iterations > 1000000)
-    throw py::value_error("iterations: must be in 0..1000000, got " + std::to_string(p.iterations));
+  // At least one round: 0 ran one anyway (the report said rounds 1).
+  if (p.iterations < 1 || p.iterations > 1000000)
+    throw py::value_error("iterations: must be in 1..1000000, got " + std::to_string(p.iterations));
   if (p.seed < 0) throw py::value_error("seed: must be >= 0, got " + std::to_string(p.seed));
   if (p.threads < 0 || p.threads > 1024)
     throw py::value_error("threads: must be in 0..1024, got " + std::to_string(p.threads));

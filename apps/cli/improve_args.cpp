@@ -168,7 +168,8 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
       a.reorder_above = n;
     } else if (o == "--iterations") {
       if (!integer(n)) return R::Error;
-      if (n < 0 || n > 1000000) return bad("--iterations must be in 0..1000000");
+      // At least one round: 0 ran one anyway (the report said rounds 1).
+      if (n < 1 || n > 1000000) return bad("--iterations must be in 1..1000000");
       a.opt.iterations = static_cast<int>(n);
     } else if (o == "--seed") {
       if (!integer(n)) return R::Error;

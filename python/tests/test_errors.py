@@ -128,7 +128,8 @@ def test_non_manifold_mesh_is_a_value_error():
     ({"weight": "0.7"}, r"weight: expected a number"),
     ({"threshold": 0.0}, r"threshold: must be in \(0, 1\]"),
     ({"threshold": float("nan")}, r"threshold: must be in"),
-    ({"iterations": -1}, r"iterations: must be in 0..1000000"),
+    ({"iterations": -1}, r"iterations: must be in 1..1000000"),
+    ({"iterations": 0}, r"iterations: must be in 1..1000000"),  # 0 ran one round anyway
     ({"iterations": 2.5}, r"iterations: expected an int"),
     ({"seed": -3}, r"seed: must be >= 0"),
     ({"seed": 2**70}, r"seed: .* is out of range"),

@@ -166,6 +166,10 @@ check "generate --seed out of range: exit 1" '[ $rc -eq 1 ] && grep -q "out of r
 "$T" generate "$W/s.mesh" --cells 2 2 2 --seed -5 2> /dev/null; rc=$?
 check "generate --seed -5: exit 1" '[ $rc -eq 1 ]'
 
+# --iterations 0 is refused (it ran one round anyway, and the report said 1).
+"$T" improve "$W/box.mesh" -o "$W/it0.mesh" --iterations 0 -q 2> "$W/err"; rc=$?
+check "--iterations 0: exit 1, nothing written" '[ $rc -eq 1 ] && grep -q "1..1000000" "$W/err" && [ ! -e "$W/it0.mesh" ]'
+
 # --allow-remove: vertices removed (none left unreferenced), the proof holds,
 # the worst alpha within 3% of the run without it on this mesh.  (Removal
 # takes only changes that raise a star's worst alpha, but the later passes
