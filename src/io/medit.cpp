@@ -728,6 +728,8 @@ class MeditBinaryReader {
         case kGmfHexahedraQ2: {
           int64_t cnt = 0;
           if (!integer(off, cnt)) return fail(ErrorCode::Parse, 0, "file ends inside a keyword header (truncated?)");
+          if (cnt < 0)  // as the ASCII reader says
+            return fail(ErrorCode::Parse, 0, std::string(kwd_name(kwd)) + ": negative count " + std::to_string(cnt));
           if (cnt > 0)
             return fail(ErrorCode::Unsupported, 0,
                         std::string(kwd_name(kwd)) + " (" + std::to_string(cnt) +
@@ -737,7 +739,16 @@ class MeditBinaryReader {
         default: break;  // skipped through the next-keyword position
       }
       if (!s) return s;
-      if (pos == 0) break;
+      if (pos == 0) {
+        // The last keyword by its header, yet no End: say so rather than
+        // "no tetrahedra" when the Tetrahedra come after it.
+        if (kwd != kGmfEnd && (!have_vertices || !have_tets))
+          return fail(ErrorCode::Parse, 0,
+                      std::string(kwd_name(kwd)) + " at byte " + std::to_string(kw_start) +
+                          " has next-keyword position 0 (the last keyword) but the mesh is not complete (" +
+                          (have_vertices ? "no Tetrahedra" : "no Vertices") + " before it); corrupt file?");
+        break;
+      }
       off = static_cast<size_t>(pos);
     }
     if (!have_vertices) return fail(ErrorCode::Parse, 0, "no Vertices keyword");

@@ -517,6 +517,22 @@ TEST(IoMedit, BinaryHostileInput) {
     std::memcpy(&b[ids], &bad, 4);
     expect_err(b, ErrorCode::InvalidMesh, "vertex index 0 is below 1 (indices count from 1)");
   }
+  // A negative count of an unsupported element (as the ASCII reader says),
+  // and Vertices claiming to be the last keyword before the Tetrahedra
+  // (it said "no tetrahedra").
+  for (const bool last : {false, true}) {
+    Gmf g{2, false, {}};
+    g.w32(1); g.w32(2);
+    g.begin(3); g.w32(3); g.end();
+    g.begin(4); g.integer(4);
+    for (int i = 0; i < 4; ++i) { g.real(i == 1); g.real(i == 2); g.real(i == 3); g.integer(0); }
+    if (!last) g.end();  // else its next-keyword position stays 0
+    g.begin(10); g.integer(last ? 0 : -5); g.end();
+    g.begin(8); g.integer(1); for (int k : {1, 2, 3, 4}) g.integer(k); g.integer(0); g.end();
+    g.w32(54); g.pos(0);
+    if (last) expect_err(g.b, ErrorCode::Parse, "Vertices at byte 20 has next-keyword position 0");
+    else expect_err(g.b, ErrorCode::Parse, "Hexahedra: negative count -5");
+  }
   // Missing End.
   {
     std::string b = gmf_one_tet(3, false);
