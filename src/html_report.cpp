@@ -102,7 +102,7 @@ const char* kScript = R"(
 // millions); the script can switch to linear.
 std::string svg_histogram(const std::string& id, const std::string& title, const std::string& unit,
                           const std::vector<const Histogram*>& series, const std::vector<std::string>& names,
-                          int label_every, const char* label_fmt) {
+                          int label_every, const char* label_fmt, const char* bar_fmt) {
   const Histogram& h0 = *series[0];
   const size_t nb = h0.counts.size();
   const double W = 520, H = 250, ml = 52, mr = 10, mt = 26, mb = 40;
@@ -157,8 +157,11 @@ std::string svg_histogram(const std::string& id, const std::string& title, const
       const double x = ml + bw * static_cast<double>(i) + gap / 2 + sw * static_cast<double>(s);
       o << "<rect class=\"bar s" << (series.size() == 1 ? 1 : s) << "\" x=\"" << x << "\" y=\"" << base - hh
         << "\" width=\"" << std::max(0.5, sw - 0.5) << "\" height=\"" << b << "\" data-count=\"" << c
-        << "\"><title>" << esc(names[s]) << ": " << f(label_fmt, lo) << "–" << f(label_fmt, hi) << unit << ": " << c
-        << "</title></rect>";
+        << "\"><title>" << esc(names[s]) << ": "
+        // The first alpha bin also holds the values below it (quality_histograms).
+        << (i == 0 && unit.empty() ? "below " + f(bar_fmt, hi) + " (inverted and flat tets included)"
+                                   : f(bar_fmt, lo) + "–" + f(bar_fmt, hi) + unit)
+        << ": " << c << "</title></rect>";
     }
     o << "\n";
   }
@@ -334,11 +337,11 @@ std::string html_report(const HtmlReportInput& in) {
   const int abins = static_cast<int>(in.before_hist.alpha.counts.size());
   const int dbins = static_cast<int>(in.before_hist.dihedral.counts.size());
   o << "<div class=\"chart\">"
-    << svg_histogram("hist-alpha", "α (one per tet)", "", sa, names, std::max(1, abins / 10), "%.1f")
+    << svg_histogram("hist-alpha", "α (one per tet)", "", sa, names, std::max(1, abins / 10), "%.1f", "%.2f")
     << "</div>\n";
   o << "<div class=\"chart\">"
     << svg_histogram("hist-dihedral", "dihedral angles (6 per tet)", "°", sd, names,
-                     std::max(1, dbins / 6), "%.0f")
+                     std::max(1, dbins / 6), "%.0f", "%.0f")
     << "</div>\n</div>\n";
   stats_tables(o, in);
   run_tables(o, in);

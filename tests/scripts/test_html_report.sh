@@ -43,6 +43,10 @@ for h in improve quality; do
 done
 
 # The .vtu field file: alpha_before where the tet survived, NaN elsewhere.
+# Bar titles name each 0.05-wide alpha bin by its own bounds (one decimal
+# gave "0.1-0.1"), and the first one says it holds inverted and flat tets.
+check "alpha bar titles: two decimals, first bin holds the inverted" \
+  'grep -q "<title>before: 0.05–0.10: [0-9]*</title>" "$W/improve.html" && grep -q "<title>mesh: below 0.05 (inverted and flat tets included): [0-9]*</title>" "$W/quality.html"'
 check "field file has the new arrays" '( for n in alpha alpha_before diagnosis alpha_bound kind; do grep -q "Name=\"$n\"" "$W/f.vtu" || exit 1; done )'
 if $PY -c "import meshio" 2> /dev/null; then
   check "alpha_before: survivors carry the input alpha, new tets NaN" '$PY -c "
