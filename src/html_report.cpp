@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "tetopt/io.hpp"
+#include "tetopt/report.hpp"
 
 namespace tetopt {
 
@@ -32,7 +33,10 @@ QualityHistograms quality_histograms(const TetMesh& m, int alpha_bins, int dihed
 
 namespace {
 
-std::string esc(const std::string& s) {
+std::string esc(const std::string& raw) {
+  // The page says charset utf-8: a file name in another encoding would make
+  // it malformed (its bytes were copied as they were).
+  const std::string s = valid_utf8(raw);
   std::string o;
   for (char c : s) {
     switch (c) {

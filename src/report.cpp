@@ -120,6 +120,22 @@ std::string json_string(const std::string& s) {
   return o + "\"";
 }
 
+std::string valid_utf8(const std::string& s) {
+  std::string o;
+  o.reserve(s.size());
+  for (size_t i = 0; i < s.size();) {
+    const size_t n = utf8_length(s, i);
+    if (n == 0) {
+      o += "\xEF\xBF\xBD";  // U+FFFD
+      ++i;
+    } else {
+      o.append(s, i, n);
+      i += n;
+    }
+  }
+  return o;
+}
+
 std::string json_string_list(const std::vector<std::string>& v) {
   std::string o = "[";
   for (size_t i = 0; i < v.size(); ++i) o += (i ? ", " : "") + json_string(v[i]);

@@ -40,6 +40,9 @@ std::vector<CellField> quality_cell_fields(const TetMesh& m);
 
 /// JSON string literal (quotes and escapes).
 std::string json_string(const std::string& s);
+/// s with every byte that is not part of well-formed UTF-8 replaced by
+/// U+FFFD (HTML and other text outputs; json_string does the same).
+std::string valid_utf8(const std::string& s);
 /// JSON array of string literals.
 std::string json_string_list(const std::vector<std::string>& v);
 

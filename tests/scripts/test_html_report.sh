@@ -47,6 +47,12 @@ done
 # gave "0.1-0.1"), and the first one says it holds inverted and flat tets.
 check "alpha bar titles: two decimals, first bin holds the inverted" \
   'grep -q "<title>before: 0.05–0.10: [0-9]*</title>" "$W/improve.html" && grep -q "<title>mesh: below 0.05 (inverted and flat tets included): [0-9]*</title>" "$W/quality.html"'
+# A file name that is not UTF-8 (Latin-1 0xFF) must not make the page,
+# which says charset utf-8, malformed: such bytes become U+FFFD.
+cp "$W/box.mesh" "$W/bad"$'\xff'"name.mesh"
+"$T" quality "$W/bad"$'\xff'"name.mesh" --html "$W/latin.html" -q > /dev/null 2>&1
+check "HTML is valid UTF-8 for a non-UTF-8 file name" \
+  '$PY -c "import sys; t = open(sys.argv[1], \"rb\").read().decode(\"utf-8\"); assert \"bad\ufffdname\" in t" "$W/latin.html"'
 check "field file has the new arrays" '( for n in alpha alpha_before diagnosis alpha_bound kind; do grep -q "Name=\"$n\"" "$W/f.vtu" || exit 1; done )'
 if $PY -c "import meshio" 2> /dev/null; then
   check "alpha_before: survivors carry the input alpha, new tets NaN" '$PY -c "
