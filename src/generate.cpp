@@ -17,8 +17,8 @@ TetMesh make_box_mesh(const BoxMeshOptions& o) {
   if (nx < 1 || ny < 1 || nz < 1 ||
       6.0 * static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz) > 2147483647.0)
     throw std::invalid_argument("make_box_mesh: " + std::to_string(nx) + " x " + std::to_string(ny) + " x " +
-                                std::to_string(nz) + " cells: need at least 1 per axis and at most 2^31 - 1 tets "
-                                "(6 per cell)");
+                                std::to_string(nz) + " cells: need at least 1 per axis and at most 2^31 - 1 tets, "
+                                "6 per cell (tet ids are 32-bit)");
   auto vid = [&](int i, int j, int k) { return static_cast<int32_t>((k * (ny + 1) + j) * (nx + 1) + i); };
   const int32_t nv = (nx + 1) * (ny + 1) * (nz + 1);
   m.xyz.resize(3 * static_cast<size_t>(nv));

@@ -214,6 +214,30 @@ struct AngleTally {
 bool keeps_angle(const AngleTally& before, const AngleTally& after, double keep) {
   return after.above <= before.above && after.worst <= std::max(before.worst, keep);
 }
+// Whether replacing the tets that for_old enumerates by those for_new
+// enumerates keeps TopoOptions::alpha_keep and angle_keep (dihedral measure
+// only).  Each enumerator calls fn(a, b, c, d) with a tet's four points.
+// The old tets' angles are measured only when a new tet has one above the
+// level (else the rule holds whatever they were).
+template <class Old, class New>
+bool keeps_levels(const TopoOptions& o, const Old& for_old, const New& for_new) {
+  if (o.measure != TopoMeasure::Dihedral) return true;
+  if (const double keep = o.alpha_keep; keep > 0) {
+    AlphaTally before, after;
+    for_old([&](const double* a, const double* b, const double* c, const double* d) { before.add(alpha(a, b, c, d), keep); });
+    for_new([&](const double* a, const double* b, const double* c, const double* d) { after.add(alpha(a, b, c, d), keep); });
+    if (!keeps_alpha(before, after, keep)) return false;
+  }
+  if (const double keep = o.angle_keep; keep > 0) {
+    AngleTally before, after;
+    for_new([&](const double* a, const double* b, const double* c, const double* d) { after.add(a, b, c, d, keep); });
+    if (after.above > 0) {
+      for_old([&](const double* a, const double* b, const double* c, const double* d) { before.add(a, b, c, d, keep); });
+      if (!keeps_angle(before, after, keep)) return false;
+    }
+  }
+  return true;
+}
 }  // namespace
 
 TopoEditor::TopoEditor(TetMesh& m, const TopoOptions& o) : TopoEditor(m, o, nullptr) {}
@@ -652,28 +676,12 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
   if (!ok && !strict && !o_.must_improve)
     ok = c.k4_new < c.k4_old && c.new_min >= c.old_min - o_.worsen_bound && worst_k4 >= c.old_min;
   if (!ok) return c.new_min > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
-  if (o_.alpha_keep > 0 && o_.measure == TopoMeasure::Dihedral && !restoring_) {
-    AlphaTally before, after;
-    for (int i = 0; i < c.n_old; ++i) before.add(tet_alpha(m_, c.old_tets[i]), o_.alpha_keep);
-    for (int i = 0; i < c.n_new; ++i) {
-      const int32_t* q = c.quad[i];
-      after.add(alpha(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])), o_.alpha_keep);
-    }
-    if (!keeps_alpha(before, after, o_.alpha_keep)) return TopoResult::NotImproved;
-  }
-  if (o_.angle_keep > 0 && o_.measure == TopoMeasure::Dihedral && !restoring_) {
-    AngleTally before, after;
-    for (int i = 0; i < c.n_new; ++i) {
-      const int32_t* q = c.quad[i];
-      after.add(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]), o_.angle_keep);
-    }
-    if (after.above > 0) {  // else the rule holds whatever the old tets were
-      for (int i = 0; i < c.n_old; ++i) {
-        const int32_t* q = m_.tet(c.old_tets[i]);
-        before.add(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]), o_.angle_keep);
-      }
-      if (!keeps_angle(before, after, o_.angle_keep)) return TopoResult::NotImproved;
-    }
+  if (!restoring_) {
+    auto quad_points = [&](const int32_t* q, auto fn) { fn(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])); };
+    if (!keeps_levels(
+            o_, [&](auto fn) { for (int i = 0; i < c.n_old; ++i) quad_points(m_.tet(c.old_tets[i]), fn); },
+            [&](auto fn) { for (int i = 0; i < c.n_new; ++i) quad_points(c.quad[i], fn); }))
+      return TopoResult::NotImproved;
   }
   // (An undo restores tets that were there, flat or inverted input tets that
   // untangling could not fix included: no orientation test for them.)
@@ -1855,31 +1863,18 @@ bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
     if (!moved) h *= 0.5;
   }
   if (!(f > f0)) return false;
-  // fn(tet, its four points with v at y) for every tet of v's star.
-  auto star_at_position = [&](const double* y, auto fn) {
-    for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
-      const int32_t* tv = m.tet(*it);
-      const double* p[4];
-      for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? y : m.point(tv[k]);
-      fn(*it, p);
-    }
+  // fn(its four points) for every tet of v's star with v at y.
+  auto star_at = [&](const double* y) {
+    return [&m, v, y](auto fn) {
+      for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+        const int32_t* tv = m.tet(*it);
+        const double* p[4];
+        for (int k = 0; k < 4; ++k) p[k] = tv[k] == v ? y : m.point(tv[k]);
+        fn(p[0], p[1], p[2], p[3]);
+      }
+    };
   };
-  if (const double keep = q.options().alpha_keep; keep > 0) {
-    AlphaTally before, after;
-    star_at_position(x, [&](int32_t t, const double* const* p) {
-      before.add(tet_alpha(m, t), keep);
-      after.add(alpha(p[0], p[1], p[2], p[3]), keep);
-    });
-    if (!keeps_alpha(before, after, keep)) return false;
-  }
-  if (const double keep = q.options().angle_keep; keep > 0) {
-    AngleTally before, after;
-    star_at_position(x, [&](int32_t, const double* const* p) { after.add(p[0], p[1], p[2], p[3], keep); });
-    if (after.above > 0) {  // else the rule holds whatever the star was
-      star_at_position(m.point(v), [&](int32_t, const double* const* p) { before.add(p[0], p[1], p[2], p[3], keep); });
-      if (!keeps_angle(before, after, keep)) return false;
-    }
-  }
+  if (!keeps_levels(q.options(), star_at(m.point(v)), star_at(x))) return false;
   const double old[3] = {m.point(v)[0], m.point(v)[1], m.point(v)[2]};
   std::copy(x, x + 3, m.point(v));
   for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {

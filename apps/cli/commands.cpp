@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <new>
+#include <stdexcept>
 
 #include <sys/stat.h>
 
@@ -385,16 +386,14 @@ int cmd_generate(const std::vector<std::string>& args) {
     else { std::fprintf(stderr, "tetopt generate: unexpected argument '%s'\n", a.c_str()); return kExitUsage; }
   }
   if (out.empty()) { std::fputs(kGenerateHelp, stderr); return kExitUsage; }
-  const double tets = 6.0 * o.nx * o.ny * o.nz;
-  if (tets > 2147483647.0) {
-    std::fprintf(stderr, "tetopt generate: %d x %d x %d cells make %.0f tets, more than 2^31 - 1 (tet ids are 32-bit)\n",
-                 o.nx, o.ny, o.nz, tets);
-    return kExitUsage;
-  }
   TetMesh m;
   try {
     m = make_box_mesh(o);
+  } catch (const std::invalid_argument& e) {  // more tets than 32-bit ids can name
+    std::fprintf(stderr, "tetopt generate: %s\n", e.what());
+    return kExitUsage;
   } catch (const std::bad_alloc&) {
+    const double tets = 6.0 * o.nx * o.ny * o.nz;
     std::fprintf(stderr, "tetopt generate: out of memory for %.0f tets (about %.1f GB); nothing written\n", tets,
                  tets * 60e-9);
     return kExitOutput;

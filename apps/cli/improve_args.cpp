@@ -226,9 +226,10 @@ std::vector<std::string> warn_dropped(const std::string& out, const tetopt::TetM
   if (!lost.empty() && !quiet) {
     std::string list;
     for (size_t i = 0; i < lost.size(); ++i) list += (i ? (i + 1 == lost.size() ? " and " : ", ") : "") + lost[i];
-    const bool changed = list.find("written with") != std::string::npos;
-    std::fprintf(stderr, "warning: %s: this format cannot hold the input's %s: %s (docs/formats.md, \"What is kept\")\n",
-                 out.c_str(), list.c_str(), changed ? "left out, or changed as said" : "left out");
+    std::fprintf(stderr,
+                 "warning: %s: this format cannot hold the input's %s: left out, or changed where said "
+                 "(docs/formats.md, \"What is kept\")\n",
+                 out.c_str(), list.c_str());
   }
   return lost;
 }

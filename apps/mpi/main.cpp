@@ -403,8 +403,8 @@ int leader(const Args& a, int size) {
     if (!a.quiet) { std::printf(fmt, xs...); std::fflush(stdout); }
   };
   // Before any work: the workers are told to stop and join the final reduce.
-  auto give_up = [&](const std::string& message, int code) {
-    std::fprintf(stderr, "tetopt-mpi: %s\n", message.c_str());
+  auto give_up = [&](const std::string& message, int code) {  // an empty message: printed already
+    if (!message.empty()) std::fprintf(stderr, "tetopt-mpi: %s\n", message.c_str());
     stop_workers(size);
     int rc = 0, all = 0;
     MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
@@ -414,12 +414,8 @@ int leader(const Args& a, int size) {
   // improve), checked before any work: "--report IN" replaced the input
   // mesh with the report, and "--report OUT" the improved mesh.
   if (const int rc = tetopt_cli::check_paths("tetopt-mpi", {{"IN", a.in}, {"-o", a.out}, {"--report", a.report}}, true);
-      rc != kExitOk) {
-    stop_workers(size);
-    int zero = 0, all = 0;
-    MPI_Reduce(&zero, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
-    return rc;
-  }
+      rc != kExitOk)
+    return give_up("", rc);
   TetMesh g;
   // As in tetopt improve (worth_sorting, --reorder-above, --keep-order),
   // the tets of a large mesh in no spatial order are put in Morton order of

@@ -9,7 +9,6 @@
 #include <sys/stat.h>
 #include <fcntl.h>
 #include <fstream>
-#include <memory>
 #include <future>
 #include <random>
 #include <sstream>
@@ -124,6 +123,7 @@ class ListedTemp {
     slot_->ready.store(false);
     slot_->taken.store(false);
   }
+  ListedTemp(ListedTemp&& o) noexcept : slot_(o.slot_) { o.slot_ = nullptr; }
   ListedTemp(const ListedTemp&) = delete;
   ListedTemp& operator=(const ListedTemp&) = delete;
 
@@ -199,11 +199,11 @@ Status check_one_output(const std::string& shown, const std::string& target, boo
 // followed); the caller renames it to `target`.  On failure no file is left.
 template <class Body>
 Status write_temp(const std::string& path, const Body& body, std::string& tmp, std::string& target,
-                  std::vector<std::unique_ptr<ListedTemp>>& listed) {
+                  std::vector<ListedTemp>& listed) {
   target = follow_links(path);
   if (Status s = check_one_output(path, target, false); !s) return s;
   tmp = temp_name(target);
-  listed.push_back(std::make_unique<ListedTemp>(tmp));
+  listed.emplace_back(tmp);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
   if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
   Status s = body(fd);
@@ -230,7 +230,7 @@ Status rename_into_place(const std::string& path, const std::string& tmp, const 
 template <class Body>
 Status write_through_temp(const std::string& path, const Body& body) {
   std::string tmp, target;
-  std::vector<std::unique_ptr<ListedTemp>> listed;
+  std::vector<ListedTemp> listed;
   if (Status s = write_temp(path, body, tmp, target, listed); !s) return s;
   return rename_into_place(path, tmp, target);
 }
@@ -240,7 +240,7 @@ Status write_through_temp(const std::string& path, const Body& body) {
 // leaves none of the new files (a TetGen .node/.ele/.face set).
 Status write_files_atomic(const std::vector<std::pair<std::string, std::string_view>>& files) {
   std::vector<std::string> tmps, targets;
-  std::vector<std::unique_ptr<ListedTemp>> listed;
+  std::vector<ListedTemp> listed;
   auto drop = [&](size_t from) {
     for (size_t k = from; k < tmps.size(); ++k) std::remove(tmps[k].c_str());
   };
