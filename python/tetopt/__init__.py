@@ -229,7 +229,7 @@ def improve(
         weight: C of eq. (3.4), the weight of boundary elements in the
             smoothing objective, 0.5 <= C < 1 (0.5 = unweighted).
         threshold: gamma, tets with alpha < gamma are poor, in (0, 1].
-        iterations: rounds (sweeps of the loop), 0..1000000.
+        iterations: rounds (sweeps of the loop), 1..1000000.
         seed: visiting order; same input and seed, same output.
         threads: worker threads (0 = library default); results are identical
             for any count.
