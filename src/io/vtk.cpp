@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "io/common.hpp"
+#include "io/checked.hpp"
 #include "io/scan_gmsh_vtk.hpp"
 #include "tetopt/io.hpp"
 
@@ -721,6 +722,9 @@ Status format_vtk(const TetMesh& m, std::string& out, bool binary) {
 
 // ================================================================ VTU
 
+using detail::ck_add;
+using detail::ck_cast;
+using detail::ck_mul;
 namespace {
 
 struct XmlAttr {
@@ -1040,29 +1044,50 @@ class VtuReader {
       return Status::success();
     }
 #ifdef TETOPT_VTK_ZLIB
+    // VTK's compressed layout: [nb][bs][last][cs_0 .. cs_{nb-1}] then the
+    // nb zlib streams; every block inflates to bs bytes but the last, which
+    // inflates to `last` (0 meaning a full block).  All arithmetic on these
+    // header words is checked (checked.hpp): a wrapped total once sized the
+    // buffer at 192 bytes while zlib was allowed 2^63 (issue 25).
     if (n < 3 * hb) return fail(ErrorCode::Parse, "truncated compression header of " + array_label(d.name), d.tag_pos);
     const uint64_t nb = header_word(p), bs = header_word(p + hb), last = header_word(p + 2 * hb);
     if (nb > (n - 3 * hb) / hb) return fail(ErrorCode::Parse, "absurd block count in " + array_label(d.name), d.tag_pos);
-    size_t at = (3 + static_cast<size_t>(nb)) * hb;
+    auto bad_header = [&](const std::string& what) {
+      return fail(ErrorCode::Parse, what + " in the compression header of " + array_label(d.name), d.tag_pos);
+    };
+    if (nb > 0 && bs == 0) return bad_header("block size 0");
+    if (last > bs) return bad_header("last block (" + std::to_string(last) + " bytes) larger than the block size (" +
+                                     std::to_string(bs) + ")");
+    size_t at = (3 + static_cast<size_t>(nb)) * hb;  // nb <= n / hb: no overflow
     uint64_t total_c = 0;
-    for (uint64_t b = 0; b < nb; ++b) total_c += header_word(p + (3 + b) * hb);
+    for (uint64_t b = 0; b < nb; ++b)
+      if (!ck_add(total_c, header_word(p + (3 + b) * hb), total_c)) return bad_header("compressed sizes that overflow");
     if (total_c > n - at) return fail(ErrorCode::Parse, "truncated compressed data of " + array_label(d.name), d.tag_pos);
-    const uint64_t total = nb == 0 ? 0 : (nb - 1) * bs + (last == 0 ? bs : last);
+    uint64_t total = 0;
+    if (nb > 0 && (!ck_mul(nb - 1, bs, total) || !ck_add(total, last == 0 ? bs : last, total)))
+      return bad_header("an uncompressed size that overflows");
     // zlib cannot expand more than about 1032:1; a larger claim is a lie.
-    if (total > 1100 * (total_c + 64)) return fail(ErrorCode::Parse, "absurd uncompressed size in " + array_label(d.name), d.tag_pos);
+    uint64_t most = 0;
+    if (!ck_mul(uint64_t{1100}, total_c + 64, most) || total > most)
+      return fail(ErrorCode::Parse, "absurd uncompressed size in " + array_label(d.name), d.tag_pos);
+    // The header's counts bound the size too: count values of vbytes bytes.
     if (wrong_size(total)) return size_error(total);
-    raw.resize(static_cast<size_t>(total));
+    size_t total_sz = 0;
+    if (!ck_cast(total, total_sz)) return bad_header("an uncompressed size beyond memory");
+    raw.resize(total_sz);
     size_t out_at = 0;
     for (uint64_t b = 0; b < nb; ++b) {
-      const uint64_t cs = header_word(p + (3 + b) * hb);
-      uLongf want = static_cast<uLongf>(b + 1 == nb ? total - out_at : bs);
-      const uLongf expect = want;
-      if (uncompress(reinterpret_cast<Bytef*>(raw.data() + out_at), &want, reinterpret_cast<const Bytef*>(p + at),
+      const uint64_t cs = header_word(p + (3 + b) * hb);  // sum checked above: fits in n
+      const uint64_t expect = b + 1 == nb ? total - out_at : bs;
+      // zlib gets the true capacity left in raw, never the header's word.
+      uLongf cap = static_cast<uLongf>(raw.size() - out_at);
+      if (expect > cap) return bad_header("blocks that overrun the uncompressed size");
+      if (uncompress(reinterpret_cast<Bytef*>(raw.data() + out_at), &cap, reinterpret_cast<const Bytef*>(p + at),
                      static_cast<uLong>(cs)) != Z_OK ||
-          want != expect)
+          cap != expect)
         return fail(ErrorCode::Parse, "corrupt zlib block " + std::to_string(b) + " in " + array_label(d.name), d.tag_pos);
       at += static_cast<size_t>(cs);
-      out_at += static_cast<size_t>(want);
+      out_at += static_cast<size_t>(cap);
     }
     return Status::success();
 #else

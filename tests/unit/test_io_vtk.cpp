@@ -489,6 +489,136 @@ TEST(IoVtkHostile, CompressedArrayOfTheWrongSizeIsNotInflated) {
   EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 64 * 1024) << "KB of peak memory added";  // 256 MiB when inflated
 }
 
+// ------------------------------------------------------------ compressed VTU headers (issue 25)
+
+namespace {
+// The zlib-compressed payload VTK writes for `data`: [nb][bs][last][cs...]
+// then the blocks, each header word `hb` bytes (4: UInt32, 8: UInt64).
+std::string zlib_payload(const std::string& data, uint64_t bs, int hb) {
+  std::vector<std::string> blocks;
+  for (size_t at = 0; at < data.size(); at += bs) {
+    const size_t len = std::min<size_t>(bs, data.size() - at);
+    std::string z(compressBound(len), '\0');
+    uLongf zs = static_cast<uLongf>(z.size());
+    EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &zs, reinterpret_cast<const Bytef*>(data.data() + at), len, 6),
+              Z_OK);
+    z.resize(zs);
+    blocks.push_back(z);
+  }
+  std::string out;
+  auto word = [&](uint64_t w) { out.append(reinterpret_cast<const char*>(&w), static_cast<size_t>(hb)); };  // LE host
+  word(blocks.size());
+  word(bs);
+  word(data.size() % bs);
+  for (const std::string& b : blocks) word(b.size());
+  for (const std::string& b : blocks) out += b;
+  return out;
+}
+
+// A one-tet VTU with `np` points whose Points are an appended raw payload.
+std::string compressed_vtu(int np, const std::string& payload, int hb) {
+  return "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"" + std::string(hb == 8 ? "UInt64" : "UInt32") +
+         "\" compressor=\"vtkZLibDataCompressor\">\n<UnstructuredGrid>\n"
+         "<Piece NumberOfPoints=\"" + std::to_string(np) + "\" NumberOfCells=\"1\">\n<Points>\n"
+         "<DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" format=\"appended\" offset=\"0\"/>\n"
+         "</Points>\n<Cells>\n"
+         "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>\n"
+         "<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">4</DataArray>\n"
+         "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray>\n"
+         "</Cells>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"raw\">\n_" +
+         payload + "\n</AppendedData>\n</VTKFile>\n";
+}
+
+std::string eight_points() {
+  std::string pts;
+  for (int v = 0; v < 8; ++v)
+    for (int k = 0; k < 3; ++k) {
+      const double x = (v >> k) & 1;
+      pts.append(reinterpret_cast<const char*>(&x), 8);
+    }
+  return pts;
+}
+}  // namespace
+
+// Valid files of every header width and several block sizes (a last block
+// that is full, partial, and a single block) are read value for value.
+TEST(IoVtkCompressed, EveryHeaderWidthAndBlockLayoutReads) {
+  const std::string pts = eight_points();  // 192 bytes
+  for (int hb : {4, 8})
+    for (uint64_t bs : {uint64_t{64}, uint64_t{50}, uint64_t{192}, uint64_t{1000}}) {
+      SCOPED_TRACE("header " + std::to_string(hb) + " block " + std::to_string(bs));
+      TetMesh m;
+      const Status s = parse_vtu(compressed_vtu(8, zlib_payload(pts, bs, hb), hb), "c.vtu", m);
+      ASSERT_TRUE(s) << s.message;
+      ASSERT_EQ(m.nv(), 8);
+      for (int v = 0; v < 8; ++v)
+        for (int k = 0; k < 3; ++k) EXPECT_EQ(m.point(v)[k], static_cast<double>((v >> k) & 1));
+    }
+}
+
+// The heap overflow of issue 25: with a UInt64 header, nb = 3 and
+// bs = 2^63 gave (nb - 1) * bs + last = 192 in wrapped arithmetic, a
+// 192-byte buffer, and zlib allowed to write 2^63 bytes into it.  The first
+// block here inflates to 4 KiB.  Now the product is checked and refused.
+TEST(IoVtkCompressed, WrappedUncompressedSizeIsRefused) {
+  const std::string big(4096, 'x');
+  std::string z(compressBound(big.size()), '\0');
+  uLongf zs = static_cast<uLongf>(z.size());
+  ASSERT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &zs, reinterpret_cast<const Bytef*>(big.data()), big.size(), 6), Z_OK);
+  z.resize(zs);
+  std::string payload;
+  auto word = [&](uint64_t w) { payload.append(reinterpret_cast<const char*>(&w), 8); };
+  word(3);
+  word(uint64_t{1} << 63);
+  word(192);
+  for (int b = 0; b < 3; ++b) word(z.size());
+  for (int b = 0; b < 3; ++b) payload += z;
+  expect_error(compressed_vtu(8, payload, 8), ErrorCode::Parse, 6, "overflows", true);
+}
+
+// Two compressed sizes of 2^63 summed to 0 and passed the truncation check.
+TEST(IoVtkCompressed, WrappedCompressedSizesAreRefused) {
+  std::string payload;
+  auto word = [&](uint64_t w) { payload.append(reinterpret_cast<const char*>(&w), 8); };
+  word(2);
+  word(96);
+  word(96);
+  word(uint64_t{1} << 63);
+  word(uint64_t{1} << 63);
+  payload += std::string(64, 'z');
+  expect_error(compressed_vtu(8, payload, 8), ErrorCode::Parse, 6, "compressed sizes that overflow", true);
+}
+
+// A last block larger than the block size, a zero block size, and blocks
+// whose inflated sizes disagree with the header: all refused, none written
+// past the buffer (the last block's stream inflates to 4 KiB here).
+TEST(IoVtkCompressed, InconsistentBlockHeadersAreRefused) {
+  const std::string pts = eight_points();
+  {
+    std::string p = zlib_payload(pts, 100, 8);  // blocks of 100 and 92
+    const uint64_t w = 200;                     // last > bs
+    std::memcpy(&p[16], &w, 8);
+    expect_error(compressed_vtu(8, p, 8), ErrorCode::Parse, 6, "larger than the block size", true);
+  }
+  {
+    std::string p = zlib_payload(pts, 100, 8);
+    const uint64_t w = 0;
+    std::memcpy(&p[8], &w, 8);
+    expect_error(compressed_vtu(8, p, 8), ErrorCode::Parse, 6, "block size 0", true);
+  }
+  {
+    // Header says one block of 192 bytes; the stream holds 4 KiB.
+    const std::string big(4096, 'x');
+    std::string p = zlib_payload(big, 4096, 4);
+    uint32_t w = 192;
+    std::memcpy(&p[4], &w, 4);
+    w = 0;
+    std::memcpy(&p[8], &w, 4);
+    expect_error(compressed_vtu(8, p, 4), ErrorCode::Parse, 6, "corrupt zlib block 0", true);
+  }
+}
+
 // ------------------------------------------------------------ meshio
 
 TEST(IoVtkCross, MeshioReadsOurFiles) {
