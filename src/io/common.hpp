@@ -26,6 +26,69 @@ inline std::string shown_token(std::string_view t, bool ascii_only) {
   return s;
 }
 
+/// A file name as a message shows it, so that the message stays one line and
+/// prints no terminal escape: control characters as C escapes (\n, \r, \t,
+/// \x1b, \x7f; the C1 controls U+0080-U+009F, UTF-8 C2 80 to C2 9F, as
+/// \u0080-\u009f) and each byte that is not part of valid UTF-8 as \xNN.
+/// Printable ASCII and valid UTF-8 stay as they are, and so does a backslash:
+/// escaping a name twice changes nothing (a name with a literal "\n" in it
+/// reads like one with a line break, but still on one line).  Every message
+/// that names a file (the readers' "NAME:LINE: ..." prefix, write errors, the
+/// command line's own lines) passes the name through this.
+inline std::string escaped_name(std::string_view name) {
+  static const char kHex[] = "0123456789abcdef";
+  std::string s;
+  s.reserve(name.size());
+  auto hex = [&](const char* pre, unsigned c) {
+    s += pre;
+    s += kHex[(c >> 4) & 15];
+    s += kHex[c & 15];
+  };
+  const size_t n = name.size();
+  for (size_t i = 0; i < n;) {
+    const auto c = static_cast<unsigned char>(name[i]);
+    if (c >= 32 && c < 127) {
+      s += static_cast<char>(c);
+      ++i;
+      continue;
+    }
+    if (c < 128) {
+      if (c == '\n') s += "\\n";
+      else if (c == '\r') s += "\\r";
+      else if (c == '\t') s += "\\t";
+      else hex("\\x", c);
+      ++i;
+      continue;
+    }
+    // The length of a valid UTF-8 sequence starting at i (RFC 3629: no
+    // overlong forms, no surrogates, nothing past U+10FFFF), else 0.
+    auto cont = [&](size_t k, unsigned lo = 0x80, unsigned hi = 0xBF) {
+      if (i + k >= n) return false;
+      const auto b = static_cast<unsigned char>(name[i + k]);
+      return b >= lo && b <= hi;
+    };
+    size_t len = 0;
+    if (c >= 0xC2 && c <= 0xDF) len = cont(1) ? 2 : 0;
+    else if (c == 0xE0) len = cont(1, 0xA0) && cont(2) ? 3 : 0;
+    else if (c == 0xED) len = cont(1, 0x80, 0x9F) && cont(2) ? 3 : 0;
+    else if (c >= 0xE1 && c <= 0xEF) len = cont(1) && cont(2) ? 3 : 0;
+    else if (c == 0xF0) len = cont(1, 0x90) && cont(2) && cont(3) ? 4 : 0;
+    else if (c >= 0xF1 && c <= 0xF3) len = cont(1) && cont(2) && cont(3) ? 4 : 0;
+    else if (c == 0xF4) len = cont(1, 0x80, 0x8F) && cont(2) && cont(3) ? 4 : 0;
+    if (len == 0) {
+      hex("\\x", c);
+      ++i;
+    } else if (c == 0xC2 && static_cast<unsigned char>(name[i + 1]) < 0xA0) {
+      hex("\\u00", static_cast<unsigned char>(name[i + 1]));  // a C1 control
+      i += 2;
+    } else {
+      s.append(name.substr(i, len));
+      i += len;
+    }
+  }
+  return s;
+}
+
 /// Whether a writer of format `target` must swap kFlipA/kFlipB: to restore
 /// the source file's own convention when writing the same format family
 /// (.mesh/.meshb, .vtk/.vtu, .node/.ele); otherwise every format is written
