@@ -53,8 +53,14 @@ std::string array_label(const std::string& name) {
   return s;
 }
 
+// Upper-cased copy of a keyword token, for comparisons.  At most 64 bytes
+// are copied (every keyword is shorter): a file with a 2 GB run of bytes in
+// one token once took 2 GB of heap here.  A longer token gets a trailing
+// '\x01', so it equals no keyword.
 std::string upper(std::string_view t) {
-  std::string s(t);
+  constexpr size_t kMost = 64;
+  std::string s(t.substr(0, kMost));
+  if (t.size() > kMost) s += '\x01';
   for (char& ch : s) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
   return s;
 }
@@ -82,6 +88,11 @@ const char* cell_type_name(int64_t t) {
     default: return "unknown";
   }
 }
+
+// Longest array name kept (bytes).  VTK sets no limit; a longer "name" is a
+// corrupt file, refused rather than copied (issue 25: no unbounded token
+// copies).
+constexpr size_t kMaxNameBytes = 4096;
 
 int cell_nodes(int64_t t) {
   switch (t) {
@@ -320,7 +331,7 @@ class LegacyReader {
     if (upper(c_.token()) != "DATASET") return fail(ErrorCode::Parse, "expected DATASET");
     if (const std::string ds = upper(c_.token()); ds != "UNSTRUCTURED_GRID")
       return fail(ErrorCode::Unsupported, "DATASET " + shorten(ds) + " is not supported (only UNSTRUCTURED_GRID)");
-    bool have_points = false, have_cells = false, have_types = false;
+    bool have_points = false, have_cells = false, have_types = false, have_cell_data = false, have_point_data = false;
     int64_t ncells = -1;
     std::vector<Array>* target = nullptr;  // CELL_DATA / POINT_DATA arrays
     int64_t target_n = 0;
@@ -336,7 +347,9 @@ class LegacyReader {
         if (s = count(n, "the number of points"); !s) return s;
         const NumType t = legacy_type(c_.token());
         if (t.bytes == 0 || t.integer) return fail(ErrorCode::Parse, "POINTS type must be float or double");
-        s = values(3 * n, t, g_.xyz, "POINTS");
+        int64_t nv3 = 0;
+        if (s = product(3, n, nv3, "POINTS"); !s) return s;
+        s = values(nv3, t, g_.xyz, "POINTS");
       } else if (kw == "CELLS") {
         if (have_cells) return fail(ErrorCode::Parse, "a second CELLS section");
         have_cells = true;
@@ -354,6 +367,11 @@ class LegacyReader {
           return s;
         g_.types.assign(v.begin(), v.end());
       } else if (kw == "CELL_DATA" || kw == "POINT_DATA") {
+        // One section of each per dataset (VTK's file-formats manual); a
+        // second one was appended to the first and its refs silently lost.
+        bool& seen = kw == "CELL_DATA" ? have_cell_data : have_point_data;
+        if (seen) return fail(ErrorCode::Parse, "a second " + kw + " section (a legacy VTK dataset has at most one)");
+        seen = true;
         if (s = count(target_n, "the number of data tuples"); !s) return s;
         target = kw == "CELL_DATA" ? &g_.cell_data : &g_.point_data;
       } else if (kw == "SCALARS" || kw == "VECTORS" || kw == "NORMALS" || kw == "TENSORS" ||
@@ -365,7 +383,9 @@ class LegacyReader {
         int64_t n = 0;
         if (s = count(n, "the lookup table size"); !s) return s;
         std::vector<double> v;
-        s = values(4 * n, binary_ ? NumType{1, true, false, false} : NumType{8, false, true, false}, v, "LOOKUP_TABLE");
+        int64_t n4 = 0;
+        if (s = product(4, n, n4, "LOOKUP_TABLE"); !s) return s;
+        s = values(n4, binary_ ? NumType{1, true, false, false} : NumType{8, false, true, false}, v, "LOOKUP_TABLE");
       } else if (kw == "FIELD") {
         s = read_field(target, target_n);
       } else if (kw == "METADATA") {
@@ -398,6 +418,23 @@ class LegacyReader {
   Status bad_token(std::string_view t, const std::string& what) const {
     if (t.empty()) return fail(ErrorCode::Parse, "unexpected end of file while reading " + what + " (truncated file?)");
     return fail(ErrorCode::Parse, "expected " + what + ", found '" + shorten(t) + "'");
+  }
+  /// The next token as a name: never empty, at most kMaxNameBytes.
+  Status name_token(std::string& out, const char* what) {
+    const std::string_view t = c_.token();
+    if (t.empty()) return bad_token(t, what);
+    if (t.size() > kMaxNameBytes)
+      return fail(ErrorCode::Parse, std::string(what) + " of " + std::to_string(t.size()) + " bytes (more than " +
+                                        std::to_string(kMaxNameBytes) + ")");
+    out.assign(t);
+    return Status::success();
+  }
+  /// out = a * b for a count derived from two file values (components x
+  /// tuples); an error naming `what` when it overflows.
+  Status product(int64_t a, int64_t b, int64_t& out, const std::string& what) const {
+    if (!detail::ck_mul(a, b, out)) return fail(ErrorCode::Parse, what + ": count " + std::to_string(a) + " x " +
+                                                                     std::to_string(b) + " overflows");
+    return Status::success();
   }
   Status count(int64_t& n, const char* what) {
     const std::string_view t = c_.token();
@@ -490,8 +527,7 @@ class LegacyReader {
 
   Status read_attribute(const std::string& kw, int64_t n, std::vector<Array>& target) {
     Array a;
-    a.name = std::string(c_.token());
-    if (a.name.empty()) return bad_token(a.name, "an array name");
+    if (Status s = name_token(a.name, "an array name"); !s) return s;
     int comps = 1;
     NumType t;
     if (kw == "COLOR_SCALARS") {
@@ -528,7 +564,9 @@ class LegacyReader {
     if (t.bytes == 0) return fail(ErrorCode::Unsupported, "unknown data type for " + a.name);
     a.components = comps;
     a.integer = t.integer;
-    if (Status s = values(n * comps, t, a.values, kw + " " + a.name); !s) return s;
+    int64_t total = 0;
+    if (Status s = product(n, comps, total, kw + " " + a.name); !s) return s;
+    if (Status s = values(total, t, a.values, kw + " " + a.name); !s) return s;
     target.push_back(std::move(a));
     return Status::success();
   }
@@ -540,8 +578,7 @@ class LegacyReader {
     if (static_cast<uint64_t>(narr) > c_.remaining() / 8) return fail(ErrorCode::Parse, "absurd FIELD array count");
     for (int64_t i = 0; i < narr; ++i) {
       Array a;
-      a.name = std::string(c_.token());
-      if (a.name.empty()) return bad_token(a.name, "a field array name");
+      if (Status s = name_token(a.name, "a field array name"); !s) return s;
       int64_t comps = 0, tuples = 0;
       if (Status s = count(comps, "the number of components"); !s) return s;
       if (Status s = count(tuples, "the number of tuples"); !s) return s;
@@ -551,7 +588,9 @@ class LegacyReader {
       if (comps < 1 || comps > 1024) return fail(ErrorCode::Parse, "bad component count for field array " + a.name);
       a.components = static_cast<int>(comps);
       a.integer = t.integer;
-      if (Status s = values(comps * tuples, t, a.values, "field array " + a.name); !s) return s;
+      int64_t total = 0;
+      if (Status s = product(comps, tuples, total, "field array " + a.name); !s) return s;
+      if (Status s = values(total, t, a.values, "field array " + a.name); !s) return s;
       // Field arrays of a data section with one tuple per entity are kept;
       // others are field data of some other kind and are skipped, unless a
       // cell array is named as a ref: skipping that one would write every
@@ -819,7 +858,9 @@ class VtuReader {
       return fail(ErrorCode::Parse, "<Cells> needs DataArrays named connectivity, offsets and types", 0);
     Grid g;
     Array a;
-    if (Status st = decode(*pts, 3 * npoints_, a); !st) return st;
+    int64_t nxyz = 0;
+    if (!ck_mul(npoints_, int64_t{3}, nxyz)) return fail(ErrorCode::Parse, "NumberOfPoints overflows", pts->tag_pos);
+    if (Status st = decode(*pts, nxyz, a); !st) return st;
     if (pts->components != 3) return fail(ErrorCode::Parse, "Points must have 3 components", pts->tag_pos);
     g.xyz = std::move(a.values);
     if (Status st = decode(*offs, ncells_, a); !st) return st;
@@ -835,7 +876,9 @@ class VtuReader {
     g.conn.assign(a.values.begin(), a.values.end());
     for (const DataArrayInfo& d : arrays_) {
       if (d.section != "CellData" && d.section != "PointData") continue;
-      const int64_t n = (d.section == "CellData" ? ncells_ : npoints_) * d.components;
+      int64_t n = 0;
+      if (!ck_mul(d.section == "CellData" ? ncells_ : npoints_, int64_t{d.components}, n))
+        return fail(ErrorCode::Parse, "DataArray " + array_label(d.name) + ": the value count overflows", d.tag_pos);
       Array x;
       if (Status st = decode(d, n, x); !st) return st;
       (d.section == "CellData" ? g.cell_data : g.point_data).push_back(std::move(x));
@@ -973,9 +1016,16 @@ class VtuReader {
       } else if (tname == "DataArray") {
         DataArrayInfo d;
         d.section = stack.empty() ? std::string() : stack.back();
-        d.name = xml_unescape(attr(attrs, "Name"));
-        d.type = std::string(attr(attrs, "type"));
-        d.format = std::string(attr(attrs, "format"));
+        // Copies of attribute values are bounded (issue 25: no unbounded
+        // token copies): a name up to kMaxNameBytes, the type and format
+        // words up to 64 bytes (longer ones match no known word anyway).
+        const std::string_view nm = attr(attrs, "Name");
+        if (nm.size() > kMaxNameBytes)
+          return fail(ErrorCode::Parse, "DataArray Name of " + std::to_string(nm.size()) + " bytes (more than " +
+                                            std::to_string(kMaxNameBytes) + ")", lt);
+        d.name = xml_unescape(nm);
+        d.type = std::string(attr(attrs, "type").substr(0, 64));
+        d.format = std::string(attr(attrs, "format").substr(0, 64));
         d.tag_pos = lt;
         if (const std::string_view nc = attr(attrs, "NumberOfComponents"); !nc.empty()) {
           int64_t k = 0;
@@ -1006,7 +1056,12 @@ class VtuReader {
         appended_end_ = (e == std::string_view::npos || e < appended_) ? s_.size() : e;
         return Status::success();  // raw bytes follow: stop scanning XML here
       }
-      if (!self && tname != "DataArray") stack.emplace_back(tname);
+      if (!self && tname != "DataArray") {
+        // VTK's element names are short; a huge one is not copied.
+        if (tname.size() > 256)
+          return fail(ErrorCode::Parse, "XML element name of " + std::to_string(tname.size()) + " bytes", lt);
+        stack.emplace_back(tname);
+      }
     }
     if (!saw_vtkfile) return fail(ErrorCode::Parse, "not a VTK XML file (no <VTKFile> element)", 0);
     if (!stack.empty()) return fail(ErrorCode::Parse, "missing </" + stack.back() + "> (truncated file?)", s_.size());
@@ -1148,13 +1203,14 @@ class VtuReader {
     } else if (d.format == "appended") {
       if (appended_ == std::string_view::npos || d.offset < 0)
         return fail(ErrorCode::Parse, "appended DataArray " + array_label(d.name) + " without AppendedData or offset", d.tag_pos);
-      const size_t start = appended_ + static_cast<size_t>(d.offset);
-      if (start > appended_end_)
+      size_t start = 0;
+      if (!ck_add(appended_, d.offset, start) || start > appended_end_)
         return fail(ErrorCode::Parse, "offset of DataArray " + array_label(d.name) + " is past the appended data", d.tag_pos);
       if (appended_base64_) {
         size_t stop = appended_end_;
         for (const DataArrayInfo& o : arrays_)
-          if (o.format == "appended" && o.offset > d.offset) stop = std::min(stop, appended_ + static_cast<size_t>(o.offset));
+          if (size_t o_start = 0; o.format == "appended" && o.offset > d.offset && ck_add(appended_, o.offset, o_start))
+            stop = std::min(stop, o_start);
         std::string bytes;
         if (!gvscan::base64_decode(s_.substr(start, stop - start), bytes))
           return fail(ErrorCode::Parse, "bad base64 in appended DataArray " + array_label(d.name), d.tag_pos);

@@ -761,3 +761,48 @@ TEST(IoVtkShared, TireFloat32CoordinatesAndCoincidentVertices) {
   ASSERT_NE(fixed, nullptr);
   EXPECT_EQ(std::count(fixed->values.begin(), fixed->values.end(), 1.0), 1248);
 }
+
+// ------------------------------------------------------------ legacy VTK counts and tokens (issue 25)
+
+// A second CELL_DATA section was appended to the first: its ref array was
+// silently dropped.  A legacy dataset has at most one of each.
+TEST(IoVtkLegacyHostile, SecondDataSectionIsRefused) {
+  const std::string base = kVtkHead + kPts + kCells;
+  TetMesh m;
+  ASSERT_TRUE(parse_vtk(base + "CELL_DATA 1\nSCALARS ref int 1\nLOOKUP_TABLE default\n7\n", "t.vtk", m));
+  EXPECT_EQ(m.tet_ref, (std::vector<int32_t>{7}));
+  expect_error(base + "CELL_DATA 1\nSCALARS a int 1\nLOOKUP_TABLE default\n7\nCELL_DATA 1\nSCALARS ref int 1\n"
+                      "LOOKUP_TABLE default\n9\n",
+               ErrorCode::Parse, 18, "a second CELL_DATA section");
+  expect_error(base + "POINT_DATA 4\nSCALARS a int 1\n1 2 3 4\nPOINT_DATA 4\nSCALARS b int 1\n1 2 3 4\n", ErrorCode::Parse,
+               17, "a second POINT_DATA section");
+}
+
+// Products of two counts from the file (components x tuples, 3 x points,
+// 4 x table size) were signed int64 products: UB past 2^63.
+TEST(IoVtkLegacyHostile, CountProductsThatOverflowAreRefused) {
+  expect_error(kVtkHead + "POINTS 4611686018427387904 double\n0 0 0\n", ErrorCode::Parse, 5, "POINTS: count 3 x");
+  const std::string base = kVtkHead + kPts + kCells;
+  expect_error(base + "CELL_DATA 1\nFIELD f 1\nref 1024 4611686018427387904 int\n7\n", ErrorCode::Parse, 16, "overflows");
+  expect_error(base + "CELL_DATA 1\nLOOKUP_TABLE t 4611686018427387904\n", ErrorCode::Parse, 15, "LOOKUP_TABLE: count 4 x");
+}
+
+// A name token of 64 MiB was copied whole (and upper-cased keyword tokens
+// too): a sparse file with a 2 GB run of bytes took 2 GB of heap.  Names are
+// bounded and keywords compared on a bounded copy.
+TEST(IoVtkLegacyHostile, HugeTokensAreNotCopied) {
+  const std::string big(size_t{64} << 20, 'n');
+  // The inputs are built first, so the peak already holds them: a copy of
+  // the token during parsing would raise it by 64 MiB.
+  const std::string name_in = kVtkHead + kPts + kCells + "CELL_DATA 1\nSCALARS " + big + " int 1\n7\n";
+  const std::string kw_in = kVtkHead + kPts + kCells + big + "\n";
+  const std::string xml_in = "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\"><" + big + ">";
+  rusage before{};
+  getrusage(RUSAGE_SELF, &before);
+  expect_error(name_in, ErrorCode::Parse, 15, "an array name of 67108864 bytes");
+  expect_error(kw_in, ErrorCode::Parse, 14, "unexpected keyword 'nnnn");
+  expect_error(xml_in, ErrorCode::Parse, 2, "XML element name of 67108864 bytes", true);
+  rusage after{};
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 3 * 64 * 1024) << "KB of peak memory added";
+}
