@@ -76,6 +76,7 @@ void throw_status(const Status& s, const std::string& prefix = "") {
   switch (s.code) {
     case ErrorCode::Io: raise_os_error(msg);
     case ErrorCode::Invariant: throw std::runtime_error("invariant failure (a bug in tetopt): " + msg);
+    case ErrorCode::OutOfMemory: PyErr_SetString(PyExc_MemoryError, msg.c_str()); throw py::error_already_set();
     default: throw py::value_error(msg);
   }
 }

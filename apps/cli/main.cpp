@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -68,10 +69,21 @@ int main(int argc, char** argv) {
     std::puts("tetopt 0.1.0");
     return 0;
   }
-  if (cmd == "quality") return tetopt_cli::cmd_quality(args);
-  if (cmd == "convert") return tetopt_cli::cmd_convert(args);
-  if (cmd == "improve") return tetopt_cli::cmd_improve(args);
-  if (cmd == "generate") return tetopt_cli::cmd_generate(args);
+  // Out of memory is a message, never an abort (issue 25): reading and
+  // writing turn it into a Status themselves (exit 2 / 4); what is left is
+  // improving or measuring a mesh that needs more memory than there is,
+  // which is the input's size: exit 2.  Outputs are only ever renamed into
+  // place complete, so nothing is written.
+  try {
+    if (cmd == "quality") return tetopt_cli::cmd_quality(args);
+    if (cmd == "convert") return tetopt_cli::cmd_convert(args);
+    if (cmd == "improve") return tetopt_cli::cmd_improve(args);
+    if (cmd == "generate") return tetopt_cli::cmd_generate(args);
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "tetopt %s: out of memory (the mesh needs more memory than there is); nothing written\n",
+                 cmd.c_str());
+    return tetopt_cli::kExitInput;
+  }
   std::fprintf(stderr, "tetopt: unknown command '%s'\n\n%s", cmd.c_str(), kMainHelp);
   return tetopt_cli::kExitUsage;
 }

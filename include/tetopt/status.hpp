@@ -18,6 +18,7 @@ enum class ErrorCode {
   InvalidMesh,  ///< the file parsed but the mesh breaks an invariant (index range, NaN, non-manifold)
   Unsupported,  ///< format, version or feature tetopt does not handle
   Invariant,    ///< an internal invariant failed (a bug): nothing is written
+  OutOfMemory,  ///< the input (or the output being built) needs more memory than there is
 };
 
 struct Status {

@@ -314,3 +314,45 @@ def test_path_with_a_nul_character_is_named(tmp_path):
         tetopt.read(str(tmp_path / "a.mesh") + "\0x")
     with pytest.raises(ValueError, match="NUL"):
         tetopt.write(str(tmp_path / "a.mesh") + "\0x", tetopt.Mesh(P, T))
+
+
+def _under_address_limit(code, limit_mb):
+    """Runs `code` in a fresh interpreter limited to limit_mb of address space."""
+    import subprocess
+    import sys
+    wrapper = ("import resource, sys\n"
+               f"resource.setrlimit(resource.RLIMIT_AS, ({limit_mb} << 20, {limit_mb} << 20))\n" + code)
+    return subprocess.run([sys.executable, "-c", wrapper], capture_output=True, text=True,
+                          env=dict(os.environ, TETOPT_NO_HUGEPAGES="1"), timeout=120)
+
+
+def test_reading_a_mesh_too_big_for_memory_raises_memory_error(tmp_path, cli):
+    """Out of memory while reading is a MemoryError naming the file, never
+    an abort of the interpreter (issue 25: every reader but Medit and
+    TetGen aborted with std::bad_alloc)."""
+    import subprocess
+    src = tmp_path / "b.msh"
+    subprocess.run([cli, "generate", str(src), "--cells", "40", "40", "40"], check=True, capture_output=True)
+    for ext in ("msh", "vtu", "vtk", "mesh", "meshb", "node"):
+        path = tmp_path / f"b.{ext}"
+        if ext != "msh":
+            subprocess.run([cli, "convert", str(src), str(path)], check=True, capture_output=True)
+        # Numpy and the module take about 55 MB of address space to import
+        # (less fails in the import); the limits above it first fail, then read.
+        code = ("import tetopt\n"
+                "try:\n"
+                f"    tetopt.read({str(path)!r})\n"
+                "    print('read')\n"
+                "except MemoryError as e:\n"
+                "    print('MemoryError', e)\n")
+        outcomes = set()
+        for limit in (50, 60, 70, 80, 100, 150, 250, 400):
+            r = _under_address_limit(code, limit)
+            if r.returncode != 0 and ("ImportError" in r.stderr or "MemoryError" in r.stderr) and \
+                    "import" in r.stderr:
+                continue  # the interpreter itself could not start under this limit
+            assert r.returncode == 0, (ext, limit, r.returncode, r.stderr[-500:])
+            outcomes.add(r.stdout.split()[0])
+            if r.stdout.startswith("MemoryError"):
+                assert f"b.{ext}" in r.stdout and "out of memory" in r.stdout, r.stdout
+        assert "MemoryError" in outcomes, (ext, outcomes)

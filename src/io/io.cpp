@@ -9,6 +9,8 @@
 #include <sys/stat.h>
 #include <fcntl.h>
 #include <fstream>
+#include <new>
+#include <stdexcept>
 #include <future>
 #include <random>
 #include <sstream>
@@ -339,7 +341,37 @@ bool cr_only(std::string_view b) {
 void cr_to_lf(std::string& s) { std::replace(s.begin(), s.end(), '\r', '\n'); }
 }  // namespace
 
+namespace {
+// What a std::bad_alloc (or a length_error: a size past max_size) in reading
+// or writing becomes: a one-line Status, never an abort (issue 25; every
+// reader but Medit and TetGen used to end with exit 134).
+template <typename F>
+Status out_of_memory_guard(const std::string& path, const char* doing, F&& f) {
+  try {
+    return f();
+  } catch (const std::bad_alloc&) {
+  } catch (const std::length_error&) {
+  }
+  return Status::error(ErrorCode::OutOfMemory, path + ": out of memory " + doing);
+}
+Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationReport* orient, int threads);
+Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const WriteOptions& opt);
+}  // namespace
+
 Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
+  const Status s = out_of_memory_guard(path, "while reading (the mesh needs more memory than there is)",
+                                       [&] { return read_mesh_unguarded(path, m, orient, threads); });
+  if (s.code == ErrorCode::OutOfMemory) m = TetMesh{};  // release what was read
+  return s;
+}
+
+Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions& opt) {
+  return out_of_memory_guard(path, "while formatting the output; nothing written",
+                             [&] { return write_mesh_unguarded(path, m, opt); });
+}
+
+namespace {
+Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   m = TetMesh{};
   const Format f = format_from_path(path);
   std::string data;
@@ -397,6 +429,7 @@ Status read_mesh(const std::string& path, TetMesh& m, OrientationReport* orient,
   if (orient) *orient = std::move(r);
   return Status::success();
 }
+}  // namespace
 
 std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const WriteOptions& opt) {
   std::vector<std::string> out;
@@ -454,7 +487,8 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
   return out;
 }
 
-Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions& opt) {
+namespace {
+Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const WriteOptions& opt) {
   const Format f = format_from_path(path);
   std::string out;
   Status s;
@@ -479,5 +513,6 @@ Status write_mesh(const std::string& path, const TetMesh& m, const WriteOptions&
   if (!s) return Status::error(s.code, path + ": " + s.message);
   return write_file_atomic(path, out);
 }
+}  // namespace
 
 }  // namespace tetopt

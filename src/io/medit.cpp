@@ -1035,7 +1035,7 @@ Status guarded(const std::string& name, F&& f) {
   try {
     return f();
   } catch (const std::bad_alloc&) {
-    return Status::error(ErrorCode::Io, name + ": out of memory");
+    return Status::error(ErrorCode::OutOfMemory, name + ": out of memory");
   } catch (const std::exception& e) {
     return Status::error(ErrorCode::Invariant, name + ": unexpected error: " + e.what());
   }

@@ -334,7 +334,7 @@ Status parse_tetgen(std::string_view node, std::string_view ele, std::string_vie
     if (s) m = std::move(tmp);
     return s;
   } catch (const std::bad_alloc&) {
-    return Status::error(ErrorCode::Io, name + ": out of memory");
+    return Status::error(ErrorCode::OutOfMemory, name + ".node/.ele: out of memory while reading");
   } catch (const std::exception& e) {
     return Status::error(ErrorCode::Invariant, name + ": unexpected error: " + e.what());
   }
@@ -402,7 +402,7 @@ Status format_tetgen(const TetMesh& m, std::string& node, std::string& ele, std:
     }
     return Status::success();
   } catch (const std::bad_alloc&) {
-    return Status::error(ErrorCode::Io, "TetGen writer: out of memory");
+    return Status::error(ErrorCode::OutOfMemory, "TetGen writer: out of memory");
   }
 }
 
