@@ -57,3 +57,18 @@ template <class V, class R>
 }
 
 }  // namespace tetopt::detail
+
+namespace tetopt::detail {
+
+/// n * per as a size for resize / reserve, saturated at SIZE_MAX when the
+/// product (or a negative n) does not fit: the allocation then fails with
+/// std::length_error, which read_mesh reports as out of memory (issue 25)
+/// instead of allocating a wrapped, too small buffer.  Callers bound n by
+/// the bytes left first; this is the second line.
+[[nodiscard]] inline size_t ck_size(int64_t n, uint64_t per) {
+  size_t out = 0;
+  if (n < 0 || !ck_mul(static_cast<uint64_t>(n), per, out)) return SIZE_MAX;
+  return out;
+}
+
+}  // namespace tetopt::detail

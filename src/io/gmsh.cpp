@@ -23,6 +23,7 @@
 #include <utility>
 #include <vector>
 
+#include "io/checked.hpp"
 #include "io/common.hpp"
 #include "io/scan_gmsh_vtk.hpp"
 #include "tetopt/io.hpp"
@@ -179,6 +180,12 @@ class GmshReader {
 
   // ---- binary values (little-endian, checked by the caller with need) ----
   bool need(size_t n) const { return c_.remaining() >= n; }
+  /// Whether `count` records of `each` bytes remain, the product checked
+  /// (checked.hpp): a count from the file never wraps into a small size.
+  bool need_n(int64_t count, size_t each) const {
+    size_t total = 0;
+    return count >= 0 && detail::ck_mul(static_cast<uint64_t>(count), each, total) && need(total);
+  }
   int32_t i32() {
     const int32_t v = gvscan::load<int32_t>(c_.s.data() + c_.pos, false);
     c_.pos += 4;
@@ -427,8 +434,11 @@ class GmshReader {
     const size_t min_bytes = binary_ ? (version_ == 41 ? static_cast<size_t>(dsize_) + 24 : 28) : 8;
     if (Status s = check_count(n, min_bytes, "node"); !s) return s;
     if (n > INT32_MAX / 4) return fail(ErrorCode::Unsupported, "more than 2^29 nodes");
-    dense_limit_ = 4 * static_cast<size_t>(n) + 1024;
-    m_.xyz.reserve(3 * static_cast<size_t>(n));
+    size_t xyz = 0;
+    if (!detail::ck_mul(static_cast<uint64_t>(n), uint64_t{4}, dense_limit_) || !detail::ck_add(dense_limit_, 1024, dense_limit_) ||
+        !detail::ck_bytes(static_cast<uint64_t>(n), 3, 1, xyz))
+      return fail(ErrorCode::Parse, "node count " + std::to_string(n) + " overflows");
+    m_.xyz.reserve(xyz);
     return Status::success();
   }
 
@@ -481,7 +491,7 @@ class GmshReader {
       const int per = 3 + (param ? static_cast<int>(dim) : 0);
       tags.resize(static_cast<size_t>(cnt));
       if (binary_) {
-        if (!need(static_cast<size_t>(cnt) * (static_cast<size_t>(dsize_) + 8 * per)))
+        if (!need_n(cnt, static_cast<size_t>(dsize_) + 8 * static_cast<size_t>(per)))
           return fail_bin("truncated $Nodes block " + std::to_string(b + 1));
         for (auto& t : tags) t = size_val();
         for (int64_t i = 0; i < cnt; ++i) {
@@ -551,7 +561,7 @@ class GmshReader {
         if (cnt <= 0 || cnt > n - done) return fail_bin("element block count " + std::to_string(cnt) + " is out of range");
         if (ntags < 0 || ntags > 64) return fail_bin("absurd element tag count " + std::to_string(ntags));
         const size_t per = 4 * static_cast<size_t>(1 + ntags + k);
-        if (!need(per * static_cast<size_t>(cnt))) return fail_bin("truncated $Elements data");
+        if (!need_n(cnt, per)) return fail_bin("truncated $Elements data");
         for (int64_t e = 0; e < cnt; ++e) {
           const int64_t etag = i32();
           for (int64_t j = 0; j < ntags; ++j) tags[j] = i32();
@@ -599,7 +609,7 @@ class GmshReader {
       if (const auto it = entity_phys_.find({static_cast<int>(dim), static_cast<int>(etag)}); it != entity_phys_.end())
         ref = it->second;
       if (binary_) {
-        if (!need(static_cast<size_t>(cnt) * static_cast<size_t>(dsize_) * static_cast<size_t>(k + 1)))
+        if (!need_n(cnt, static_cast<size_t>(dsize_) * static_cast<size_t>(k + 1)))
           return fail_bin("truncated $Elements block " + std::to_string(b + 1));
         for (int64_t e = 0; e < cnt; ++e) {
           for (int j = 0; j <= k; ++j) rec[j] = size_val();

@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "detail/parallel.hpp"
+#include "io/checked.hpp"
 #include "io/common.hpp"
 #include "tetopt/io.hpp"
 
@@ -517,8 +518,8 @@ class MeditAsciiReader {
     int64_t n = 0;
     if (Status s = read_count("Vertices", 4, n); !s) return s;
     if (n >= min_records_) {
-      m_.xyz.resize(3 * static_cast<size_t>(n));
-      m_.vert_ref.resize(static_cast<size_t>(n));
+      m_.xyz.resize(detail::ck_size(n, 3));
+      m_.vert_ref.resize(detail::ck_size(n, 1));
       if (ParallelRecords::run(lx_, n, {4, 3, -1, false}, threads_, chunk_, m_.xyz.data(), nullptr,
                                m_.vert_ref.data())) {
         nv_ = n;
@@ -527,8 +528,8 @@ class MeditAsciiReader {
       m_.xyz.clear();
       m_.vert_ref.clear();
     }
-    m_.xyz.reserve(3 * static_cast<size_t>(n));
-    m_.vert_ref.reserve(static_cast<size_t>(n));
+    m_.xyz.reserve(detail::ck_size(n, 3));
+    m_.vert_ref.reserve(detail::ck_size(n, 1));
     for (int64_t i = 1; i <= n; ++i) {
       for (int k = 0; k < 3; ++k) {
         double x = 0;
@@ -564,8 +565,8 @@ class MeditAsciiReader {
     int64_t n = 0;
     if (Status s = read_count(kw, nper + 1, n); !s) return s;
     if (n >= min_records_) {
-      ids.resize(static_cast<size_t>(n) * nper);
-      refs.resize(static_cast<size_t>(n));
+      ids.resize(detail::ck_size(n, static_cast<uint64_t>(nper)));
+      refs.resize(detail::ck_size(n, 1));
       if (ParallelRecords::run(lx_, n, {nper + 1, 0, nv_, true}, threads_, chunk_, nullptr, ids.data(),
                                refs.data())) {
         if (nv_ < 0) pending_.push_back({kw, kw_line, &ids, nper, Target::Vertex});
@@ -574,8 +575,8 @@ class MeditAsciiReader {
       ids.clear();
       refs.clear();
     }
-    ids.reserve(static_cast<size_t>(n) * nper);
-    refs.reserve(static_cast<size_t>(n));
+    ids.reserve(detail::ck_size(n, static_cast<uint64_t>(nper)));
+    refs.reserve(detail::ck_size(n, 1));
     for (int64_t i = 1; i <= n; ++i) {
       for (int k = 0; k < nper; ++k) {
         int32_t id = 0;
@@ -598,7 +599,7 @@ class MeditAsciiReader {
                           : target == Target::Edge  ? (have_edges() ? int64_t(m_.edge_ref.size()) : -1)
                                                     : (have_tris() ? int64_t(m_.tri_ref.size()) : -1);
     const char* what = target == Target::Vertex ? "vertex" : target == Target::Edge ? "edge" : "triangle";
-    ids.reserve(static_cast<size_t>(n));
+    ids.reserve(detail::ck_size(n, 1));
     for (int64_t i = 1; i <= n; ++i) {
       int32_t id = 0;
       if (Status s = read_id(kw, i, n, limit, what, id); !s) return s;
@@ -868,8 +869,8 @@ class MeditBinaryReader {
     const size_t rs = 3 * real_size() + int_size();
     int64_t n = 0;
     if (Status s = read_count(off, "Vertices", rs, n); !s) return s;
-    m_.xyz.resize(3 * static_cast<size_t>(n));
-    m_.vert_ref.resize(static_cast<size_t>(n));
+    m_.xyz.resize(detail::ck_size(n, 3));
+    m_.vert_ref.resize(detail::ck_size(n, 1));
     for (int64_t i = 0; i < n; ++i, off += rs) {
       for (int k = 0; k < 3; ++k) {
         const double x = real_at(off + k * real_size());
@@ -889,8 +890,8 @@ class MeditBinaryReader {
     const size_t rs = (nper + 1) * is;
     int64_t n = 0;
     if (Status s = read_count(off, kw, rs, n); !s) return s;
-    ids.resize(static_cast<size_t>(n) * nper);
-    refs.resize(static_cast<size_t>(n));
+    ids.resize(detail::ck_size(n, static_cast<uint64_t>(nper)));
+    refs.resize(detail::ck_size(n, 1));
     for (int64_t i = 0; i < n; ++i, off += rs) {
       for (int k = 0; k < nper; ++k) {
         const int64_t v = int_at(off + k * is);
@@ -909,7 +910,7 @@ class MeditBinaryReader {
     const size_t is = int_size();
     int64_t n = 0;
     if (Status s = read_count(off, kw, is, n); !s) return s;
-    ids.resize(static_cast<size_t>(n));
+    ids.resize(detail::ck_size(n, 1));
     for (int64_t i = 0; i < n; ++i, off += is) {
       const int64_t v = int_at(off);
       if (v < 1 || v > kMaxId)

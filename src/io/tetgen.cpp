@@ -35,6 +35,7 @@
 #include <string_view>
 #include <vector>
 
+#include "io/checked.hpp"
 #include "io/common.hpp"
 #include "tetopt/io.hpp"
 
@@ -197,8 +198,8 @@ class TetgenReader {
       return fail(ErrorCode::Unsupported, ext, r.line(),
                   "no points (points listed in a .poly / .smesh file are not supported)");
     if (Status s = check_count(ext, r, n, 4, "points"); !s) return s;
-    m_.xyz.reserve(3 * static_cast<size_t>(n));
-    if (nbm) m_.vert_ref.reserve(static_cast<size_t>(n));
+    m_.xyz.reserve(detail::ck_size(n, 3));
+    if (nbm) m_.vert_ref.reserve(detail::ck_size(n, 1));
     for (int64_t i = 0; i < n; ++i) {
       if (!r.next()) return truncated(ext, r, i, n, "points");
       int64_t id = 0;
@@ -247,8 +248,8 @@ class TetgenReader {
       return fail(ErrorCode::Parse, ext, r.line(), "bad number of attributes " + std::to_string(nattr));
     if (n == 0) return fail(ErrorCode::InvalidMesh, ext, r.line(), "no tetrahedra (surface-only mesh?)");
     if (Status s = check_count(ext, r, n, 5, "tetrahedra"); !s) return s;
-    m_.tets.reserve(4 * static_cast<size_t>(n));
-    m_.tet_ref.reserve(static_cast<size_t>(n));
+    m_.tets.reserve(detail::ck_size(n, 4));
+    m_.tet_ref.reserve(detail::ck_size(n, 1));
     for (int64_t i = 0; i < n; ++i) {
       if (!r.next()) return truncated(ext, r, i, n, "tetrahedra");
       int64_t id = 0;
@@ -284,8 +285,8 @@ class TetgenReader {
     if (nbm != 0 && nbm != 1)
       return fail(ErrorCode::Parse, ext, r.line(), "bad number of boundary markers " + std::to_string(nbm) + " (0 or 1)");
     if (Status s = check_count(ext, r, n, 4, "faces"); !s) return s;
-    m_.tris.reserve(3 * static_cast<size_t>(n));
-    m_.tri_ref.reserve(static_cast<size_t>(n));
+    m_.tris.reserve(detail::ck_size(n, 3));
+    m_.tri_ref.reserve(detail::ck_size(n, 1));
     for (int64_t i = 0; i < n; ++i) {
       if (!r.next()) return truncated(ext, r, i, n, "faces");
       int64_t id = 0;
