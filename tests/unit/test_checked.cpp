@@ -52,5 +52,5 @@ TEST(Checked, SizesSaturateSoTheAllocationFails) {
   size_t b = 0;
   EXPECT_TRUE(ck_bytes(1000, 4, 8, b));
   EXPECT_EQ(b, 32000u);
-  EXPECT_FALSE(ck_bytes(uint64_t{1} << 40, uint64_t{1} << 20, 8, b));
+  EXPECT_FALSE(ck_bytes(uint64_t{1} << 44, uint64_t{1} << 20, 8, b));  // 2^67
 }
