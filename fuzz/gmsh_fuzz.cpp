@@ -5,7 +5,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace tetopt;
   TetMesh m;
   const std::string_view in(reinterpret_cast<const char*>(data), size);
-  if (!parse_gmsh(in, "fuzz", m)) return 0;
+  if (Status s = parse_gmsh(in, "fuzz", m); !s) return tetopt_fuzz::refused("reader refused:", s.message);
   if (!tetopt_fuzz::finish_read(m, Format::Gmsh)) return 0;
   tetopt_fuzz::check_topology(m);
   std::string out;

@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       tetopt_fuzz::die("fast path disagrees with the serial reader:", st.message + " | " + sf.message);
     if (st.ok()) tetopt_fuzz::same_or_die(m, f, "medit fast path");
   }
-  if (!st) return 0;
+  if (!st) return tetopt_fuzz::refused("reader refused:", st.message);
   if (!tetopt_fuzz::finish_read(m, Format::Medit)) return 0;
   tetopt_fuzz::check_topology(m);
   std::string out;
