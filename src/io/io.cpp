@@ -21,6 +21,7 @@
 #include "tetopt/io.hpp"
 
 #include "detail/parallel.hpp"
+#include "io/common.hpp"
 
 namespace tetopt {
 
@@ -133,140 +134,252 @@ class ListedTemp {
   PendingTemp* slot_ = nullptr;
 };
 
-std::string temp_name(const std::string& path) {
-  std::random_device rd;
-  return path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
+// A file name as messages show it (control characters escaped: one line).
+std::string shown(const std::string& path) { return detail::escaped_name(path); }
+// The system's reason for an errno value ("File too large").
+std::string reason(int err) { return std::strerror(err); }
+
+// The folder of a path ("." when it names none).
+std::string folder_of(const std::string& p) {
+  const size_t slash = p.rfind('/');
+  return slash == std::string::npos ? "." : slash == 0 ? "/" : p.substr(0, slash);
 }
 
-bool write_all(int fd, std::string_view bytes) {
+// A new name beside target: TARGET.tmp-PID-N.  A target whose name leaves
+// no room for the suffix in one folder entry (NAME_MAX, 255 bytes on most
+// file systems) gives its name cut short before the suffix: a 250-byte name
+// is a valid output.
+std::string temp_name(const std::string& target) {
+  std::random_device rd;
+  const std::string suffix = ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
+  const size_t slash = target.rfind('/'), base = slash == std::string::npos ? 0 : slash + 1;
+  size_t keep = target.size() - base;
+  if (keep + suffix.size() > 64) {
+    const long max = ::pathconf(folder_of(target).c_str(), _PC_NAME_MAX);
+    const size_t limit = max > 0 ? static_cast<size_t>(max) : 255;
+    if (keep + suffix.size() > limit) keep = limit > suffix.size() ? limit - suffix.size() : 0;
+  }
+  return target.substr(0, base + keep) + suffix;
+}
+
+// Writes all of bytes; 0, or the errno of the failure (EFBIG past a file
+// size limit once SIGXFSZ is ignored, ENOSPC, EIO).  The value is returned,
+// not left in errno, since the Medit writer calls this on a helper thread.
+int write_all(int fd, std::string_view bytes) {
   while (!bytes.empty()) {
     const ssize_t w = ::write(fd, bytes.data(), bytes.size());
     if (w < 0 && errno == EINTR) continue;
-    if (w <= 0) return false;
+    if (w < 0) return errno;
+    if (w == 0) return EIO;
     bytes.remove_prefix(static_cast<size_t>(w));
   }
-  return true;
+  return 0;
 }
 
-Status write_failed() { return Status::error(ErrorCode::Io, "write failed (disk full?)"); }
+Status write_failed(int err) { return Status::error(ErrorCode::Io, "write failed: " + reason(err)); }
 
-// The file a path names after following symbolic links (at most 40, as
-// Linux's own limit), or the path itself when it names no link.  A link that
-// points nowhere gives the path it points to, which a write creates.
-std::string follow_links(std::string path) {
-  for (int hop = 0; hop < 40; ++hop) {
+// The file a write to `path` replaces: path with its symbolic links followed
+// (at most 40, Linux's own limit), into `target`.  A link that points
+// nowhere gives the path it points to, which the write creates; a path that
+// names nothing is its own target (its folder is checked later).  A link
+// loop, a name too long, a folder that cannot be searched is an error with
+// the system's reason ("Too many levels of symbolic links", "File name too
+// long"): before, a loop's last link was replaced by a regular file.
+Status follow_links(const std::string& path, std::string& target) {
+  std::string p = path;
+  for (int hop = 0;; ++hop) {
     struct stat st {};
-    if (::lstat(path.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return path;
+    if (::lstat(p.c_str(), &st) != 0) {
+      const int err = errno;
+      if (err == ENOENT) break;
+      return Status::error(ErrorCode::Io, shown(path) + ": " + reason(err));
+    }
+    if (!S_ISLNK(st.st_mode)) break;
+    if (hop == 40) return Status::error(ErrorCode::Io, shown(path) + ": " + reason(ELOOP));
     std::string to(static_cast<size_t>(st.st_size > 0 ? st.st_size : 4096) + 1, '\0');
-    const ssize_t n = ::readlink(path.c_str(), to.data(), to.size());
-    if (n <= 0) return path;
+    const ssize_t n = ::readlink(p.c_str(), to.data(), to.size());
+    if (n < 0) {
+      const int err = errno;
+      return Status::error(ErrorCode::Io, shown(path) + ": " + reason(err));
+    }
+    if (n == 0) return Status::error(ErrorCode::Io, shown(path) + ": " + reason(ENOENT));
     to.resize(static_cast<size_t>(n));
     if (to[0] != '/') {
-      const size_t slash = path.rfind('/');
-      if (slash != std::string::npos) to = path.substr(0, slash + 1) + to;
+      const size_t slash = p.rfind('/');
+      if (slash != std::string::npos) to = p.substr(0, slash + 1) + to;
     }
-    path = to;
+    p = to;
   }
-  return path;
+  target = p;
+  return Status::success();
 }
 
-// check_output_path for one file, on the path with its links followed.
-// probe: also create (and remove) a file in its folder; a writer skips that,
-// since creating its temporary file is the same test.
-Status check_one_output(const std::string& shown, const std::string& target, bool probe = true) {
+// check_output_path for one file, on its target (links followed): *old gets
+// the target's stat and *exists whether there is one.  probe: also create
+// (and remove) a file in its folder; a writer skips that, since creating its
+// temporary file is the same test.
+Status check_one_output(const std::string& path, const std::string& target, bool probe, struct stat* old = nullptr,
+                        bool* exists = nullptr) {
   struct stat st {};
-  if (::stat(target.c_str(), &st) == 0) {
-    if (S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown + ": is a folder, not a file");
+  const bool there = ::stat(target.c_str(), &st) == 0;
+  const int err = there ? 0 : errno;
+  if (!there && err != ENOENT) return Status::error(ErrorCode::Io, shown(path) + ": " + reason(err));
+  if (there) {
+    if (S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown(path) + ": is a folder, not a file");
     if (!S_ISREG(st.st_mode))
-      return Status::error(ErrorCode::Io, shown + ": not a regular file (a device, FIFO or socket); tetopt writes "
-                                                  "a temporary file and renames it into place, which would replace it");
+      return Status::error(ErrorCode::Io, shown(path) + ": not a regular file (a device, FIFO or socket); tetopt "
+                                                        "writes a temporary file and renames it into place, which "
+                                                        "would replace it");
   }
-  const size_t slash = target.rfind('/');
-  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : target.substr(0, slash);
-  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
-    return Status::error(ErrorCode::Io, shown + ": no such folder '" + dir + "'");
+  if (old) *old = st;
+  if (exists) *exists = there;
+  const std::string dir = folder_of(target);
+  struct stat dst {};
+  const int dir_err = ::stat(dir.c_str(), &dst) == 0 ? (S_ISDIR(dst.st_mode) ? 0 : ENOTDIR) : errno;
+  if (dir_err == ENOENT || dir_err == ENOTDIR)
+    return Status::error(ErrorCode::Io, shown(path) + ": no such folder '" + shown(dir) + "'");
+  if (dir_err != 0) return Status::error(ErrorCode::Io, shown(path) + ": folder '" + shown(dir) + "': " + reason(dir_err));
   if (!probe) return Status::success();
   // Creating a file there is the only sure test (access() says yes to root
   // in a read-only or pseudo file system such as /sys).
   const std::string tmp = temp_name(target);
   const ListedTemp listed(tmp);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-  if (fd < 0) return Status::error(ErrorCode::Io, shown + ": cannot create files in folder '" + dir + "'");
+  if (fd < 0) {
+    const int open_err = errno;
+    return Status::error(ErrorCode::Io, shown(path) + ": cannot create files in folder '" + shown(dir) + "': " +
+                                            reason(open_err));
+  }
   ::close(fd);
   ::unlink(tmp.c_str());
   return Status::success();
 }
 
-// body(fd) writes a new temporary file `tmp` beside path's target (links
-// followed); the caller renames it to `target`.  On failure no file is left.
+// One output being written: its temporary file beside its target (links
+// followed), listed for remove_pending_temporaries from before it exists,
+// and removed by the destructor unless it was renamed into place, so that
+// every way out (an error, a bad_alloc while formatting) leaves nothing.
+struct TempFile {
+  std::string path, target, tmp;  // as given (for messages), the file replaced, the temporary
+  std::vector<ListedTemp> listed;  // zero or one
+  bool exists = false;             // the temporary is there and ours
+  TempFile() = default;
+  TempFile(TempFile&& o) noexcept
+      : path(std::move(o.path)), target(std::move(o.target)), tmp(std::move(o.tmp)), listed(std::move(o.listed)),
+        exists(o.exists) {
+    o.exists = false;
+  }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  TempFile& operator=(TempFile&&) = delete;
+  ~TempFile() {
+    if (exists) ::unlink(tmp.c_str());
+  }
+};
+
+// Closes a descriptor on every way out.
+struct FdGuard {
+  int fd = -1;
+  ~FdGuard() {
+    if (fd >= 0) ::close(fd);
+  }
+  int release() { return std::exchange(fd, -1); }
+};
+
+// Writes the temporary file of `path` with body(fd), which returns
+// write_failed(err) or a format error.  A rewritten file keeps the mode of
+// the one it replaces, and its owner and group where the system permits
+// (fchown: root may give any; a user the group of one of its groups); a new
+// file gets 0666 less the umask, as open(2) gives it.  The temporary is
+// created 0600 when the target exists, so the new bytes are never readable
+// by more than the old ones, and given the old mode after they are written
+// (a write clears setuid and setgid bits).  It is fsynced before it is
+// closed: renamed into place afterwards, it is whole on disk, even after a
+// crash of the machine.
 template <class Body>
-Status write_temp(const std::string& path, const Body& body, std::string& tmp, std::string& target,
-                  std::vector<ListedTemp>& listed) {
-  target = follow_links(path);
-  if (Status s = check_one_output(path, target, false); !s) return s;
-  tmp = temp_name(target);
-  listed.emplace_back(tmp);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-  if (fd < 0) return Status::error(ErrorCode::Io, path + ": cannot open for writing");
+Status write_temp(const std::string& path, const Body& body, TempFile& t) {
+  t.path = path;
+  if (Status s = follow_links(path, t.target); !s) return s;
+  struct stat old {};
+  bool replaces = false;
+  if (Status s = check_one_output(path, t.target, false, &old, &replaces); !s) return s;
+  int fd = -1, err = 0;
+  for (int attempt = 0; attempt < 3 && fd < 0; ++attempt) {  // another name on the rare clash of two
+    t.tmp = temp_name(t.target);
+    t.listed.clear();
+    t.listed.emplace_back(t.tmp);
+    fd = ::open(t.tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, replaces ? 0600 : 0666);
+    err = fd < 0 ? errno : 0;
+    if (err != EEXIST) break;
+  }
+  if (fd < 0)
+    return Status::error(ErrorCode::Io, shown(path) + ": cannot create a file in folder '" +
+                                            shown(folder_of(t.target)) + "': " + reason(err));
+  t.exists = true;
+  FdGuard guard{fd};
   Status s = body(fd);
-  if (::close(fd) != 0 && s) s = write_failed();
-  if (!s) {
-    std::remove(tmp.c_str());
-    return Status::error(s.code, path + ": " + s.message);
+  if (s && replaces) {
+    if (::fchown(fd, old.st_uid, old.st_gid) != 0) {
+      const int ignored = ::fchown(fd, static_cast<uid_t>(-1), old.st_gid);  // EPERM: not ours to give
+      (void)ignored;
+    }
+    const int ignored = ::fchmod(fd, old.st_mode & 07777);  // fails only where modes do not exist (FAT)
+    (void)ignored;
   }
+  if (s && ::fsync(fd) != 0) s = write_failed(errno);
+  if (::close(guard.release()) != 0 && s) s = write_failed(errno);
+  if (!s) return Status::error(s.code, shown(path) + ": " + s.message);
   return Status::success();
 }
 
-Status rename_into_place(const std::string& path, const std::string& tmp, const std::string& target) {
-  if (std::rename(tmp.c_str(), target.c_str()) == 0) return Status::success();
-  std::remove(tmp.c_str());
-  return Status::error(ErrorCode::Io, path + ": cannot rename the temporary file into place");
+// fsyncs a folder after a rename into it, so the new entry is on disk too.
+// Best effort: some file systems refuse fsync on a folder (EINVAL), and the
+// file is in place either way.
+void sync_folder(const std::string& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return;
+  const int ignored = ::fsync(fd);
+  (void)ignored;
+  ::close(fd);
 }
 
-// Writes `path` through a temporary file in the same folder, renamed into
-// place at the end: body(fd) writes the bytes and returns write_failed() or
-// a format error, and on any failure the temporary is removed, so a failed
-// run never leaves a file, whole or half.  A symbolic link is followed (the
-// file it names is replaced, the link stays), and a target that is not a
-// regular file is refused before anything is written.
+// Writes paths[k] with body(k, fd), all or none: every file goes to its
+// temporary file in its target's folder (see write_temp) before any is
+// renamed into place, so a full disk, a file size limit or an unwritable
+// name leaves none of the new files (a TetGen .node/.ele/.face set) and the
+// old ones as they were; then the folders are fsynced.  A symbolic link is
+// followed (the file it names is replaced, the link stays), and a target
+// that is not a regular file is refused before anything is written.
 template <class Body>
-Status write_through_temp(const std::string& path, const Body& body) {
-  std::string tmp, target;
-  std::vector<ListedTemp> listed;
-  if (Status s = write_temp(path, body, tmp, target, listed); !s) return s;
-  return rename_into_place(path, tmp, target);
+Status write_set(const std::vector<std::string>& paths, const Body& body) {
+  std::vector<TempFile> temps;  // their destructors remove what was not renamed
+  temps.reserve(paths.size());
+  for (size_t k = 0; k < paths.size(); ++k) {
+    temps.emplace_back();
+    if (Status s = write_temp(paths[k], [&](int fd) { return body(k, fd); }, temps.back()); !s) return s;
+  }
+  std::vector<std::string> folders;
+  for (TempFile& t : temps) {
+    if (std::rename(t.tmp.c_str(), t.target.c_str()) != 0) {
+      const int err = errno;
+      return Status::error(ErrorCode::Io, shown(t.path) + ": cannot rename the temporary file into place: " +
+                                              reason(err));
+    }
+    t.exists = false;
+    const std::string dir = folder_of(t.target);
+    if (std::find(folders.begin(), folders.end(), dir) == folders.end()) folders.push_back(dir);
+  }
+  for (const std::string& dir : folders) sync_folder(dir);
+  return Status::success();
 }
 
-// Several files, all or none: every one is written to its temporary file
-// before any is renamed into place, so a full disk or an unwritable name
-// leaves none of the new files (a TetGen .node/.ele/.face set).
 Status write_files_atomic(const std::vector<std::pair<std::string, std::string_view>>& files) {
-  std::vector<std::string> tmps, targets;
-  std::vector<ListedTemp> listed;
-  auto drop = [&](size_t from) {
-    for (size_t k = from; k < tmps.size(); ++k) std::remove(tmps[k].c_str());
-  };
-  for (const auto& file : files) {
-    // (no structured binding: clang 14, the fuzz build's compiler, cannot
-    // capture one in a lambda)
-    const std::string_view bytes = file.second;
-    std::string tmp, target;
-    const Status s = write_temp(
-        file.first, [&](int fd) { return write_all(fd, bytes) ? Status::success() : write_failed(); }, tmp, target,
-        listed);
-    if (!s) {
-      drop(0);
-      return s;
-    }
-    tmps.push_back(tmp);
-    targets.push_back(target);
-  }
-  for (size_t k = 0; k < tmps.size(); ++k)
-    if (Status s = rename_into_place(files[k].first, tmps[k], targets[k]); !s) {
-      drop(k + 1);
-      return s;
-    }
-  return Status::success();
+  std::vector<std::string> paths;
+  for (const auto& f : files) paths.push_back(f.first);
+  return write_set(paths, [&](size_t k, int fd) {
+    const int err = write_all(fd, files[k].second);
+    return err ? write_failed(err) : Status::success();
+  });
 }
 
 // The Medit text goes to the temporary file in pieces of about 4 MiB while
@@ -277,26 +390,30 @@ Status write_files_atomic(const std::vector<std::pair<std::string, std::string_v
 // cache (0.08 s for the impeller on this project's VM) then overlaps the
 // formatting.  Same bytes as format_medit into one string.
 Status write_medit_streamed(const std::string& path, const TetMesh& m, int threads) {
-  return write_through_temp(path, [&](int fd) {
+  return write_set({path}, [&](size_t, int fd) {
     const bool helper = detail::resolve_threads(threads) > 1;
-    bool ok = true;
+    int err = 0;        // the first write's failure
     std::string piece;  // the piece being written; its buffer goes back to the formatter
-    std::future<bool> pending;
+    std::future<int> pending;
     auto wait = [&] {
-      if (pending.valid()) ok = pending.get() && ok;
+      if (pending.valid()) {
+        const int e = pending.get();
+        if (!err) err = e;
+      }
     };
     const TextFlush flush = [&](std::string& out) {
       wait();
       std::swap(out, piece);
-      if (!ok) return;
+      if (err) return;
       if (helper) pending = std::async(std::launch::async, [fd, &piece] { return write_all(fd, piece); });
-      else ok = write_all(fd, piece);
+      else err = write_all(fd, piece);
     };
     std::string out;
     const Status s = format_medit(m, out, threads, flush);
     wait();
     if (!s) return s;
-    return ok && write_all(fd, out) ? Status::success() : write_failed();
+    if (!err) err = write_all(fd, out);
+    return err ? write_failed(err) : Status::success();
   });
 }
 }  // namespace
@@ -308,14 +425,20 @@ std::vector<std::string> mesh_files(const std::string& path) {
 }
 
 Status check_output_path(const std::string& path) {
-  for (const std::string& f : mesh_files(path))
-    if (Status s = check_one_output(f, follow_links(f)); !s) return s;
+  for (const std::string& f : mesh_files(path)) {
+    std::string target;
+    if (Status s = follow_links(f, target); !s) return s;
+    if (Status s = check_one_output(f, target, true); !s) return s;
+  }
   return Status::success();
 }
 
 Status write_file_atomic(const std::string& path, std::string_view bytes) { return write_files_atomic({{path, bytes}}); }
 
-std::string output_target(const std::string& path) { return follow_links(path); }
+std::string output_target(const std::string& path) {
+  std::string target;
+  return follow_links(path, target) ? target : path;
+}
 
 void remove_pending_temporaries() noexcept {
   for (PendingTemp& p : g_pending)
@@ -495,10 +618,10 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           path + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+                           shown(path) + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
     case Format::TetGen: {
       std::string ele, face;
-      if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, path + ": " + s.message);
+      if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, shown(path) + ": " + s.message);
       // .face always written (possibly empty) so a stale .face never pairs
       // with new .node/.ele; the three files all or none.
       const std::vector<std::string> names = mesh_files(path);
@@ -510,7 +633,7 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
     case Format::Vtk: s = format_vtk(m, out, opt.binary); break;
     case Format::Vtu: s = format_vtu(m, out); break;
   }
-  if (!s) return Status::error(s.code, path + ": " + s.message);
+  if (!s) return Status::error(s.code, shown(path) + ": " + s.message);
   return write_file_atomic(path, out);
 }
 }  // namespace
