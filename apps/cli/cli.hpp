@@ -45,17 +45,32 @@ bool load_mesh(const std::string& path, tetopt::TetMesh& m, bool quiet, int thre
 
 /// Checks a command's files before any work: (what, path) pairs, the first
 /// one the input, the rest outputs (empty paths skipped).  Two of them
-/// naming the same file (the input included; a side output over the input or
-/// the main output would silently replace it) is a usage error: prints
-/// "CMD: WHAT and WHAT name the same file 'P'" and returns kExitUsage.  An
-/// output whose folder does not exist: prints "CMD: P: no such folder (for
-/// WHAT)" and returns kExitOutput, so that no output is written by a run
-/// that fails later on another one.  Returns kExitOk otherwise.  The main
-/// output may be the input (improve in place: written through a temporary).
-/// files[0] is the input mesh and, with out_may_be_in, files[1] the output
+/// naming the same file (through another spelling, a hard link or a
+/// symbolic link too: the same device and inode where both exist) is a
+/// usage error: prints "CMD: WHAT and WHAT name the same file 'P'" (over
+/// IN, with the rule: no output may replace IN) and returns kExitUsage.  An
+/// output that cannot be written (no such folder, a folder or a device, a
+/// symbolic link loop, a name too long): prints "CMD: P: why (for WHAT)"
+/// and returns kExitOutput, so that no output is written by a run that
+/// fails later on another one.  Returns kExitOk otherwise.
+/// files[0] is the input mesh and, with out_is_mesh, files[1] the output
 /// mesh: a TetGen name among them stands for its .node, .ele and .face.
-int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::string>>& files,
+/// out_may_be_in: files[1] may be IN (tetopt convert rewrites a file in
+/// place, through a temporary; tetopt improve and tetopt-mpi refuse -o IN
+/// as they refuse --report IN).
+int check_paths(const char* cmd, const std::vector<std::pair<std::string, std::string>>& files, bool out_is_mesh,
                 bool out_may_be_in);
+
+/// --field writes VTK XML: false, with "CMD: --field writes VTK XML (.vtu)
+/// ..." on stderr, when a non-empty name does not end in .vtu (any case).
+bool field_is_vtu(const char* cmd, const std::string& field);
+
+/// A file name, or a whole message, as a line shows it: control characters
+/// escaped (\n, \x1b) and bytes that are not UTF-8 as \xNN
+/// (tetopt::detail::escaped_name), so that every message stays one line and
+/// prints no terminal escape.  Escaping twice changes nothing: a library
+/// message whose names are escaped already passes through as it is.
+std::string shown(const std::string& s);
 
 /// True when stderr is a terminal (progress lines go there).
 bool stderr_is_tty();

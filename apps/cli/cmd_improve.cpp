@@ -32,7 +32,9 @@ static const char* kImproveHelp =
     "per region.  If that check fails nothing is written (exit 3).\n"
     "\n"
     "options:\n"
-    "  -o, --output OUT     output mesh (format by extension; required)\n"
+    "  -o, --output OUT     output mesh (format by extension; required).  Never IN,\n"
+    "                       as no output is (exit 1, checked through links too):\n"
+    "                       write elsewhere, then rename\n"
     "  --mode M             best (default): flips everywhere + both smoothers, rounds\n"
     "                         with rising thresholds until nothing improves\n"
     "                       combined: the paper's loop (smoothing, and topology\n"
@@ -50,7 +52,8 @@ static const char* kImproveHelp =
     "                       byte-identical for every K (--threads 1 on a shared machine)\n"
     "  --report FILE.json   write a machine-readable report: before/after statistics,\n"
     "                       operation counts, time per phase, the invariant check\n"
-    "  --field OUT.vtu      write per-tet fields of OUT for ParaView: alpha, alpha_before\n"
+    "  --field OUT.vtu      write per-tet fields of OUT for ParaView (VTK XML: the name\n"
+    "                       must end in .vtu): alpha, alpha_before\n"
     "                       (alpha of the same four vertices in IN; NaN for new tets),\n"
     "                       dihedral_min/max, kind, region, diagnosis (0 good, 1 locked\n"
     "                       by its boundary triangle, 2 locked by constrained\n"
@@ -101,16 +104,20 @@ int cmd_improve(const std::vector<std::string>& args) {
   switch (parse_improve_args(args, {"tetopt improve", "tetopt"}, extra, a, err)) {
     case ImproveArgsResult::Ok: break;
     case ImproveArgsResult::Help: std::fputs(kImproveHelp, stdout); return kExitOk;
-    case ImproveArgsResult::Error: std::fprintf(stderr, "%s\n", err.c_str()); return kExitUsage;
-    case ImproveArgsResult::ErrorWithHelp: std::fprintf(stderr, "%s\n\n%s", err.c_str(), kImproveHelp); return kExitUsage;
+    case ImproveArgsResult::Error: std::fprintf(stderr, "%s\n", shown(err).c_str()); return kExitUsage;
+    case ImproveArgsResult::ErrorWithHelp:
+      std::fprintf(stderr, "%s\n\n%s", shown(err).c_str(), kImproveHelp);
+      return kExitUsage;
   }
   const std::string &in = a.in, &out = a.out, &report_path = a.report;
   ImproveOptions& opt = a.opt;
   WriteOptions& wo = a.wo;
   const bool quiet = a.quiet, verbose = a.verbose;
+  if (!field_is_vtu("tetopt improve", field)) return kExitUsage;
+  // -o IN is refused as --report IN is (true, false: OUT is a mesh, and not IN).
   if (const int rc = check_paths("tetopt improve",
                                  {{"IN", in}, {"-o", out}, {"--report", report_path}, {"--field", field}, {"--html", html}},
-                                 true);
+                                 true, false);
       rc)
     return rc;
   const auto t0 = std::chrono::steady_clock::now();
@@ -148,7 +155,7 @@ int cmd_improve(const std::vector<std::string>& args) {
   Status s = improve(m, opt, rep, log, &g_interrupted);
   if (tty) std::fputs("\033[K", stderr);
   if (!s) {
-    std::fprintf(stderr, "tetopt: %s: %s\n", in.c_str(),s.message.c_str());
+    std::fprintf(stderr, "tetopt: %s: %s\n", shown(in).c_str(), shown(s.message).c_str());
     if (s.code == ErrorCode::Invariant) {
       std::fputs("tetopt: invariant failure (a bug in tetopt): nothing written\n", stderr);
       return kExitInvariant;
@@ -173,7 +180,7 @@ int cmd_improve(const std::vector<std::string>& args) {
   if (want_diag && cores > 1)
     diag_beside = std::async(std::launch::async, [&m, &dopt] { return diagnose(m, dopt); });
   s = write_mesh(out, m, wo);
-  if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
+  if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   Diagnosis diag;
   if (diag_beside.valid()) diag = diag_beside.get();
@@ -183,7 +190,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     fields.insert(fields.begin() + 1, CellField{"alpha_before", alpha_before.lookup(m), false});
     for (CellField& c : diagnosis_cell_fields(diag, m.nt())) fields.push_back(std::move(c));
     s = write_cell_fields_vtu(field, m, fields);
-    if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
+    if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }
   if (!report_path.empty()) {
     std::string js = report_to_json(rep, opt, in, out);
@@ -194,7 +201,7 @@ int cmd_improve(const std::vector<std::string>& args) {
                   ",\n  \"tets_reordered\": " + (order.empty() ? "false" : "true") + ",\n  \"dropped_on_write\": " +
                   json_string_list(dropped) + ",\n  \"diagnosis\": " + dj);
     s = write_file_atomic(report_path, js);
-    if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
+    if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }
   if (!html.empty()) {
     HtmlReportInput hin;
@@ -211,10 +218,11 @@ int cmd_improve(const std::vector<std::string>& args) {
     hin.seconds_end_to_end = total;
     hin.diagnosis = &diag;
     s = write_html_report(html, hin);
-    if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
+    if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }
   if (!quiet) {
-    std::printf("%s -> %s (mode %s, C = %.2f)\n", in.c_str(), out.c_str(), mode_name(opt.mode), opt.weight);
+    std::printf("%s -> %s (mode %s, C = %.2f)\n", shown(in).c_str(), shown(out).c_str(), mode_name(opt.mode),
+                opt.weight);
     std::printf("%s", format_before_after(rep.before, rep.after, rep.seconds_total).c_str());
     std::printf("  operations: %lld smoothing moves, %lld 2-3, %lld 3-2, %lld edge removals, %lld multi-face "
                 "removals, %lld 2-2, %lld 4-4 (%lld pairs of them made together); %lld all-boundary tets removed; "
@@ -241,7 +249,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     std::printf("  boundary unchanged: %s\n",
                 rep.invariants_checked ? (rep.invariants_ok ? verdict.c_str() : "NO") : "not checked (--no-check)");
     std::printf("%s", format_diagnosis(diag, verbose ? 20 : 3).c_str());
-    if (!html.empty()) std::printf("  wrote HTML report to %s\n", html.c_str());
+    if (!html.empty()) std::printf("  wrote HTML report to %s\n", shown(html).c_str());
   }
   return kExitOk;
 }

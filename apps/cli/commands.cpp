@@ -31,7 +31,8 @@ std::atomic<bool> g_interrupted{false};
 void on_sigint(int) { g_interrupted = true; }
 
 namespace {
-// The input being read (its memory map is live), for on_sigbus.
+// The input being read (its memory map is live), as messages show it, for
+// on_sigbus (which may not allocate).
 const char* volatile g_reading = nullptr;
 void put_err(const char* s) {
   size_t n = 0;
@@ -80,7 +81,9 @@ void on_terminating_signal(int sig) {
 }
 
 Status read_input(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
-  g_reading = path.c_str();
+  static std::string reading;
+  reading = shown(path);
+  g_reading = reading.c_str();
   Status s = read_mesh(path, m, orient, threads);
   g_reading = nullptr;
   return s;
@@ -92,7 +95,7 @@ bool parse_double(const std::string& opt, const std::string& v, double& out) {
   char* end = nullptr;
   out = std::strtod(v.c_str(), &end);
   if (v.empty() || *end != '\0' || !std::isfinite(out)) {
-    std::fprintf(stderr, "tetopt: %s expects a number, got '%s'\n", opt.c_str(), v.c_str());
+    std::fprintf(stderr, "tetopt: %s expects a number, got '%s'\n", shown(opt).c_str(), shown(v).c_str());
     return false;
   }
   return true;
@@ -100,7 +103,7 @@ bool parse_double(const std::string& opt, const std::string& v, double& out) {
 
 bool has_value(const std::vector<std::string>& args, size_t i, const std::string& opt) {
   if (i + 1 < args.size()) return true;
-  std::fprintf(stderr, "tetopt: %s needs a value\n", opt.c_str());
+  std::fprintf(stderr, "tetopt: %s needs a value\n", shown(opt).c_str());
   return false;
 }
 
@@ -109,11 +112,11 @@ bool parse_int(const std::string& opt, const std::string& v, long long& out) {
   errno = 0;
   out = std::strtoll(v.c_str(), &end, 10);
   if (v.empty() || *end != '\0') {
-    std::fprintf(stderr, "tetopt: %s expects an integer, got '%s'\n", opt.c_str(), v.c_str());
+    std::fprintf(stderr, "tetopt: %s expects an integer, got '%s'\n", shown(opt).c_str(), shown(v).c_str());
     return false;
   }
   if (errno == ERANGE) {  // strtoll saturated: 99999999999999999999 read as 2^63 - 1
-    std::fprintf(stderr, "tetopt: %s: '%s' is out of range\n", opt.c_str(), v.c_str());
+    std::fprintf(stderr, "tetopt: %s: '%s' is out of range\n", shown(opt).c_str(), shown(v).c_str());
     return false;
   }
   return true;
@@ -131,7 +134,7 @@ std::string id_list(const std::vector<int32_t>& ids, size_t max = 10) {
 bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std::vector<int32_t>* order,
                int64_t reorder_above) {
   const bool progress = !quiet && stderr_is_tty();
-  if (progress) std::fprintf(stderr, "reading %s ...\r", path.c_str());
+  if (progress) std::fprintf(stderr, "reading %s ...\r", shown(path).c_str());
   OrientationReport orient;
   // The reader's arrays take about as many bytes as the file or more
   // (demo impeller: a 19 MB Medit file, 30 MB of heap after the read); the
@@ -144,17 +147,17 @@ bool load_mesh(const std::string& path, TetMesh& m, bool quiet, int threads, std
   });
   if (progress) std::fputs("\033[K", stderr);
   if (!s) {
-    std::fprintf(stderr, "tetopt: %s\n", s.message.c_str());
+    std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str());
     return false;
   }
   if (!quiet && orient.flipped)
     std::fprintf(stderr, "note: %s stores tets in the opposite orientation; normalised on read, "
-                         "written back in its own convention\n", path.c_str());
+                         "written back in its own convention\n", shown(path).c_str());
   if (!quiet && !orient.inverted.empty())
-    std::fprintf(stderr, "warning: %s: %zu inverted tets (ids %s)\n", path.c_str(), orient.inverted.size(),
+    std::fprintf(stderr, "warning: %s: %zu inverted tets (ids %s)\n", shown(path).c_str(), orient.inverted.size(),
                  id_list(orient.inverted).c_str());
   if (!quiet && !orient.flat_tets.empty())
-    std::fprintf(stderr, "warning: %s: %zu flat (zero-volume) tets (ids %s)\n", path.c_str(),
+    std::fprintf(stderr, "warning: %s: %zu flat (zero-volume) tets (ids %s)\n", shown(path).c_str(),
                  orient.flat_tets.size(), id_list(orient.flat_tets).c_str());
   return true;
 }
@@ -182,6 +185,7 @@ static const char* kQualityHelp =
     "                    (number of constrained vertices, 4 = all-boundary), region,\n"
     "                    diagnosis (0 good, 1 locked by triangle, 2 locked by\n"
     "                    neighbours, 3 improvable) and alpha_bound as cell data, for ParaView\n"
+    "                    (VTK XML: the name must end in .vtu)\n"
     "  --html FILE       write a self-contained HTML report (histograms, tables,\n"
     "                    diagnosis with the worst tets)\n"
     "  --threshold G     alpha below which a tet is diagnosed (default 0.3)\n"
@@ -220,13 +224,15 @@ int cmd_quality(const std::vector<std::string>& args) {
       if (n < 0 || n > 1024) { std::fputs("tetopt quality: --threads must be in 0..1024\n", stderr); return kExitUsage; }
       threads = static_cast<int>(n);
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetopt quality: unknown option '%s'\n\n%s", a.c_str(), kQualityHelp);
+      std::fprintf(stderr, "tetopt quality: unknown option '%s'\n\n%s", shown(a).c_str(), kQualityHelp);
       return kExitUsage;
     } else if (in.empty()) in = a;
-    else { std::fprintf(stderr, "tetopt quality: unexpected argument '%s'\n", a.c_str()); return kExitUsage; }
+    else { std::fprintf(stderr, "tetopt quality: unexpected argument '%s'\n", shown(a).c_str()); return kExitUsage; }
   }
   if (in.empty()) { std::fputs(kQualityHelp, stderr); return kExitUsage; }
-  if (const int rc = check_paths("tetopt quality", {{"IN", in}, {"--field", field}, {"--html", html}}, false); rc)
+  if (!field_is_vtu("tetopt quality", field)) return kExitUsage;
+  if (const int rc = check_paths("tetopt quality", {{"IN", in}, {"--field", field}, {"--html", html}}, false, false);
+      rc)
     return rc;
   TetMesh m;
   if (!load_mesh(in, m, quiet || json, threads)) return kExitInput;
@@ -244,7 +250,7 @@ int cmd_quality(const std::vector<std::string>& args) {
     if (dup != std::string::npos) js.erase(dup, 1);
     std::printf("%s\n", js.c_str());
   } else {
-    std::printf("%s\n%s", in.c_str(), format_stats_table(s).c_str());
+    std::printf("%s\n%s", shown(in).c_str(), format_stats_table(s).c_str());
     if (hist) std::printf("%s", format_histograms(s).c_str());
     std::printf("%s", format_diagnosis(diag).c_str());
   }
@@ -252,8 +258,8 @@ int cmd_quality(const std::vector<std::string>& args) {
     std::vector<CellField> fields = quality_cell_fields(m);
     for (CellField& c : diagnosis_cell_fields(diag, m.nt())) fields.push_back(std::move(c));
     Status st = write_cell_fields_vtu(field, m, fields);
-    if (!st) { std::fprintf(stderr, "tetopt: %s\n", st.message.c_str()); return kExitOutput; }
-    if (!quiet && !json) std::printf("wrote per-tet fields to %s\n", field.c_str());
+    if (!st) { std::fprintf(stderr, "tetopt: %s\n", shown(st.message).c_str()); return kExitOutput; }
+    if (!quiet && !json) std::printf("wrote per-tet fields to %s\n", shown(field).c_str());
   }
   if (!html.empty()) {
     HtmlReportInput hin;
@@ -263,8 +269,8 @@ int cmd_quality(const std::vector<std::string>& args) {
     hin.before_hist = quality_histograms(m);
     hin.diagnosis = &diag;
     Status st = write_html_report(html, hin);
-    if (!st) { std::fprintf(stderr, "tetopt: %s\n", st.message.c_str()); return kExitOutput; }
-    if (!quiet && !json) std::printf("wrote HTML report to %s\n", html.c_str());
+    if (!st) { std::fprintf(stderr, "tetopt: %s\n", shown(st.message).c_str()); return kExitOutput; }
+    if (!quiet && !json) std::printf("wrote HTML report to %s\n", shown(html).c_str());
   }
   return kExitOk;
 }
@@ -317,24 +323,25 @@ int cmd_convert(const std::vector<std::string>& args) {
         wo.meditb_version = static_cast<int>(v);
       }
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetopt convert: unknown option '%s'\n\n%s", a.c_str(), kConvertHelp);
+      std::fprintf(stderr, "tetopt convert: unknown option '%s'\n\n%s", shown(a).c_str(), kConvertHelp);
       return kExitUsage;
     } else pos.push_back(a);
   }
   if (pos.size() != 2) { std::fputs(kConvertHelp, stderr); return kExitUsage; }
   if (format_from_path(pos[1]) == Format::Unknown) {
-    std::fprintf(stderr, "tetopt: %s: unknown output extension\n", pos[1].c_str());
+    std::fprintf(stderr, "tetopt: %s: unknown output extension\n", shown(pos[1]).c_str());
     return kExitUsage;
   }
-  // OUT may be IN (rewritten in place); OUT must be writable before IN is read.
-  if (const int rc = check_paths("tetopt convert", {{"IN", pos[0]}, {"OUT", pos[1]}}, true); rc) return rc;
+  // OUT may be IN (rewritten in place: convert changes the file, not the
+  // mesh); OUT must be writable before IN is read.
+  if (const int rc = check_paths("tetopt convert", {{"IN", pos[0]}, {"OUT", pos[1]}}, true, true); rc) return rc;
   TetMesh m;
   OrientationReport orient;
   Status s = read_input(pos[0], m, &orient, wo.threads);
-  if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitInput; }
+  if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitInput; }
   warn_dropped(pos[1], m, wo, false);
   s = write_mesh(pos[1], m, wo);
-  if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
+  if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   return kExitOk;
 }
 
@@ -380,10 +387,10 @@ int cmd_generate(const std::vector<std::string>& args) {
       if (v != 1 && v != 2) { std::fputs("tetopt generate: --regions is 1 or 2\n", stderr); return kExitUsage; }
       o.regions = static_cast<int>(v);
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetopt generate: unknown option '%s'\n\n%s", a.c_str(), kGenerateHelp);
+      std::fprintf(stderr, "tetopt generate: unknown option '%s'\n\n%s", shown(a).c_str(), kGenerateHelp);
       return kExitUsage;
     } else if (out.empty()) out = a;
-    else { std::fprintf(stderr, "tetopt generate: unexpected argument '%s'\n", a.c_str()); return kExitUsage; }
+    else { std::fprintf(stderr, "tetopt generate: unexpected argument '%s'\n", shown(a).c_str()); return kExitUsage; }
   }
   if (out.empty()) { std::fputs(kGenerateHelp, stderr); return kExitUsage; }
   TetMesh m;
@@ -399,7 +406,7 @@ int cmd_generate(const std::vector<std::string>& args) {
     return kExitOutput;
   }
   Status s = write_mesh(out, m);
-  if (!s) { std::fprintf(stderr, "tetopt: %s\n", s.message.c_str()); return kExitOutput; }
+  if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   return kExitOk;
 }
 

@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <map>
 
+#include "cli.hpp"
+
 namespace tetopt_cli {
 
 using namespace tetopt;
@@ -73,7 +75,7 @@ tetopt::Status load_for_improve(const std::string& path, tetopt::TetMesh& m, tet
     s = tetopt::build_topology(m, threads);
     if (s) s = tetopt::orient_consistently(m, false, &orient, threads);
   }
-  if (!s) s.message = path + ": " + s.message;
+  if (!s) s.message = shown(path) + ": " + s.message;
   return s;
 }
 
@@ -229,7 +231,7 @@ std::vector<std::string> warn_dropped(const std::string& out, const tetopt::TetM
     std::fprintf(stderr,
                  "warning: %s: this format cannot hold the input's %s: left out, or changed where said "
                  "(docs/formats.md, \"What is kept\")\n",
-                 out.c_str(), list.c_str());
+                 shown(out).c_str(), list.c_str());
   }
   return lost;
 }

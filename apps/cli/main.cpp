@@ -55,6 +55,10 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, tetopt_cli::on_terminating_signal);
   std::signal(SIGHUP, tetopt_cli::on_terminating_signal);
   std::signal(SIGBUS, tetopt_cli::on_sigbus);
+  // Past a file size limit (ulimit -f) a write fails with EFBIG, an output
+  // error (exit 4) whose temporary file is removed, instead of SIGXFSZ
+  // killing the process and leaving it behind.
+  std::signal(SIGXFSZ, SIG_IGN);
   if (argc < 2) {
     std::fputs(kMainHelp, stderr);
     return tetopt_cli::kExitUsage;
@@ -84,6 +88,6 @@ int main(int argc, char** argv) {
                  cmd.c_str());
     return tetopt_cli::kExitInput;
   }
-  std::fprintf(stderr, "tetopt: unknown command '%s'\n\n%s", cmd.c_str(), kMainHelp);
+  std::fprintf(stderr, "tetopt: unknown command '%s'\n\n%s", tetopt_cli::shown(cmd).c_str(), kMainHelp);
   return tetopt_cli::kExitUsage;
 }

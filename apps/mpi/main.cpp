@@ -77,7 +77,7 @@ const char* kHelp =
     "2 ranks on 2 cores: 11.8-12.2 s bound, 9.6-10.1 s with --bind-to none).\n"
     "\n"
     "options (as tetopt improve):\n"
-    "  -o, --output OUT     output mesh (required)\n"
+    "  -o, --output OUT     output mesh (required; never IN, as no output is: exit 1)\n"
     "  --mode M             best (default), combined, smooth, topo\n"
     "  --optimizer O        paper (default) or maxmin\n"
     "  --weight C           0.5 <= C < 1 (default 0.75)\n"
@@ -337,7 +337,7 @@ int worker(const Args& a, int rank) {
     if (tag == kTagWrite) {  // this rank's piece of the final mesh
       Status s = decode_part(msg, part);
       if (s) s = write_part_vtu(a.per_rank, rank, part);
-      if (!s) { std::fprintf(stderr, "tetopt-mpi: rank %d: %s\n", rank, s.message.c_str()); rc = 1; }
+      if (!s) { std::fprintf(stderr, "tetopt-mpi: rank %d: %s\n", rank, tetopt_cli::shown(s.message).c_str()); rc = 1; }
       continue;
     }
     double secs = 0;
@@ -404,7 +404,7 @@ int leader(const Args& a, int size) {
   };
   // Before any work: the workers are told to stop and join the final reduce.
   auto give_up = [&](const std::string& message, int code) {  // an empty message: printed already
-    if (!message.empty()) std::fprintf(stderr, "tetopt-mpi: %s\n", message.c_str());
+    if (!message.empty()) std::fprintf(stderr, "tetopt-mpi: %s\n", tetopt_cli::shown(message).c_str());
     stop_workers(size);
     int rc = 0, all = 0;
     MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
@@ -413,7 +413,9 @@ int leader(const Args& a, int size) {
   // The files are distinct and the outputs can be written (as in tetopt
   // improve), checked before any work: "--report IN" replaced the input
   // mesh with the report, and "--report OUT" the improved mesh.
-  if (const int rc = tetopt_cli::check_paths("tetopt-mpi", {{"IN", a.in}, {"-o", a.out}, {"--report", a.report}}, true);
+  // -o IN is refused as --report IN is (true, false: OUT is a mesh, and not IN).
+  if (const int rc =
+          tetopt_cli::check_paths("tetopt-mpi", {{"IN", a.in}, {"-o", a.out}, {"--report", a.report}}, true, false);
       rc != kExitOk)
     return give_up("", rc);
   TetMesh g;
@@ -706,7 +708,7 @@ int leader(const Args& a, int size) {
     std::string err;
     std::vector<int32_t> part = partition_tets(g, po, err);
     if (part.empty()) {
-      std::fprintf(stderr, "tetopt-mpi: %s\n", err.c_str());
+      std::fprintf(stderr, "tetopt-mpi: %s\n", tetopt_cli::shown(err).c_str());
       rc = 1;
     } else {
       std::vector<PartPlan> plans;
@@ -718,7 +720,7 @@ int leader(const Args& a, int size) {
       s = decode_part(msgs[0], own);
       if (s) s = write_part_vtu(a.per_rank, 0, own);
       if (s) s = write_pvtu(a.per_rank, size);
-      if (!s) { std::fprintf(stderr, "tetopt-mpi: %s\n", s.message.c_str()); rc = 1; }
+      if (!s) { std::fprintf(stderr, "tetopt-mpi: %s\n", tetopt_cli::shown(s.message).c_str()); rc = 1; }
     }
     t_parts = now() - t;
   }
@@ -727,7 +729,7 @@ int leader(const Args& a, int size) {
   MPI_Reduce(&rc, &all, 1, MPI_INT, MPI_MAX, 0, MPI_COMM_WORLD);
   if (exit_code == kExitOk && all) { exit_code = kExitOutput; failure = "writing the per-rank files failed"; }
   if (exit_code != kExitOk) {
-    std::fprintf(stderr, "tetopt-mpi: %s: %s\n", a.in.c_str(), failure.c_str());
+    std::fprintf(stderr, "tetopt-mpi: %s: %s\n", tetopt_cli::shown(a.in).c_str(), tetopt_cli::shown(failure).c_str());
     if (exit_code == kExitInvariant) std::fputs("tetopt-mpi: invariant failure (a bug): nothing written\n", stderr);
     return exit_code;
   }
@@ -736,14 +738,15 @@ int leader(const Args& a, int size) {
   const QualityStats after = compute_stats(g, kRank0Threads);
   const double t_final_stats = now() - t_stats;
   if (!a.quiet) {
-    std::printf("%s -> %s (%d ranks, mode %s, %zu rounds)\n", a.in.c_str(), a.out.c_str(), size,
+    std::printf("%s -> %s (%d ranks, mode %s, %zu rounds)\n", tetopt_cli::shown(a.in).c_str(),
+                tetopt_cli::shown(a.out).c_str(), size,
                 mode_name(a.opt.mode), logs.size());
     std::printf("%s", format_before_after(before, after, total).c_str());
     std::printf("  time: read %.3f s, final check %.3f s, final statistics %.3f s, write %.3f s, per-rank files "
                 "%.3f s, end to end %.3f s\n", t_read, t_check, t_final_stats, t_write, t_parts, total);
     std::printf("  boundary unchanged: yes (checked on the merged mesh: constrained vertices bit-identical, "
                 "constrained faces identical, no inverted tet, region volumes kept)\n");
-    if (write_parts) std::printf("  wrote %d pieces and %s/parts.pvtu\n", size, a.per_rank.c_str());
+    if (write_parts) std::printf("  wrote %d pieces and %s/parts.pvtu\n", size, tetopt_cli::shown(a.per_rank).c_str());
   }
   if (!a.report.empty()) {
     int64_t bs = 0, bg = 0;
@@ -764,7 +767,7 @@ int leader(const Args& a, int size) {
     for (size_t i = 0; i < logs.size(); ++i) js += round_json(logs[i]) + (i + 1 < logs.size() ? ",\n" : "\n");
     js += "  ],\n  \"before\": " + stats_to_json(before, 2) + ",\n  \"after\": " + stats_to_json(after, 2) + "\n}\n";
     s = write_file_atomic(a.report, js);
-    if (!s) { std::fprintf(stderr, "tetopt-mpi: %s\n", s.message.c_str()); return kExitOutput; }
+    if (!s) { std::fprintf(stderr, "tetopt-mpi: %s\n", tetopt_cli::shown(s.message).c_str()); return kExitOutput; }
   }
   return kExitOk;
 }
@@ -784,6 +787,9 @@ int main(int argc, char** argv) {
   tetopt_cli::keep_freed_memory();
   MPI_Init(&argc, &argv);
   for (const int sig : {SIGTERM, SIGHUP, SIGINT}) std::signal(sig, on_terminating_signal);
+  // Past a file size limit (ulimit -f) a write fails with EFBIG (exit 4, the
+  // temporary file removed) instead of SIGXFSZ killing rank 0 mid-write.
+  std::signal(SIGXFSZ, SIG_IGN);
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -794,7 +800,7 @@ int main(int argc, char** argv) {
   if (prc == -1) {
     if (rank == 0) std::fputs(kHelp, stdout);
   } else if (prc > 0) {
-    if (rank == 0) std::fprintf(stderr, "%s\n\n%s", err.c_str(), kHelp);
+    if (rank == 0) std::fprintf(stderr, "%s\n\n%s", tetopt_cli::shown(err).c_str(), kHelp);
     rc = prc;
   } else {
     rc = rank == 0 ? leader(a, size) : worker(a, rank);
