@@ -104,9 +104,12 @@ const char* kScript = R"(
 // A grouped bar chart of one or two histograms over the same bins.  Heights
 // are drawn on a log(1+count) scale (the bad tail is a handful of tets among
 // millions); the script can switch to linear.
+// axis: the x axis label; first_below: the first bin also holds the
+// inverted and flat tets (alpha).
 std::string svg_histogram(const std::string& id, const std::string& title, const std::string& unit,
                           const std::vector<const Histogram*>& series, const std::vector<std::string>& names,
-                          int label_every, const char* label_fmt, const char* bar_fmt) {
+                          int label_every, const char* label_fmt, const char* bar_fmt, const std::string& axis,
+                          bool first_below) {
   const Histogram& h0 = *series[0];
   const size_t nb = h0.counts.size();
   const double W = 520, H = 250, ml = 52, mr = 10, mt = 26, mb = 40;
@@ -163,7 +166,7 @@ std::string svg_histogram(const std::string& id, const std::string& title, const
         << "\" width=\"" << std::max(0.5, sw - 0.5) << "\" height=\"" << b << "\" data-count=\"" << c
         << "\"><title>" << esc(names[s]) << ": "
         // The first alpha bin also holds the values below it (quality_histograms).
-        << (i == 0 && unit.empty() ? "below " + f(bar_fmt, hi) + " (inverted and flat tets included)"
+        << (i == 0 && first_below ? "below " + f(bar_fmt, hi) + " (inverted and flat tets included)"
                                    : f(bar_fmt, lo) + "–" + f(bar_fmt, hi) + unit)
         << ": " << c << "</title></rect>";
     }
@@ -179,7 +182,7 @@ std::string svg_histogram(const std::string& id, const std::string& title, const
       << "\" stroke=\"#52606d\"/><text x=\"" << x << "\" y=\"" << base + 16 << "\" text-anchor=\"middle\">"
       << f(label_fmt, v) << "</text>";
   }
-  o << "\n<text x=\"" << ml + pw / 2 << "\" y=\"" << H - 6 << "\" text-anchor=\"middle\">" << esc(unit.empty() ? "α" : "dihedral angle (degrees)")
+  o << "\n<text x=\"" << ml + pw / 2 << "\" y=\"" << H - 6 << "\" text-anchor=\"middle\">" << esc(axis)
     << "</text>\n</svg>\n";
   return o.str();
 }
@@ -209,6 +212,91 @@ void stats_tables(std::ostringstream& o, const HtmlReportInput& in) {
       << s->dihedral_above_175 << "</td><td>" << s->regions << "</td></tr>\n";
   }
   o << "</table>\n";
+}
+
+// Every measure of measures.hpp: a table (worst, mean, threshold counts,
+// source) and a histogram each.
+void measures_section(std::ostringstream& o, const HtmlReportInput& in) {
+  std::vector<std::pair<std::string, const MeasureStats*>> rows = {{in.has_after ? "before" : "mesh",
+                                                                    &in.before.measures}};
+  if (in.has_after && in.after.measures.computed) rows.push_back({"after", &in.after.measures});
+  const bool faces = in.before.measures.faces_measured && (rows.size() == 1 || in.after.measures.faces_measured);
+  const bool two = rows.size() == 2;
+  o << "<h2>Measures</h2>\n<p class=\"note\">Every measure a tet is judged by (docs/measures.md): per tet, "
+       "and per face as OpenFOAM's checkMesh defines them (cell centre = tet centroid). Worst is the minimum "
+       "where higher is better and the maximum where lower is better. Fail counts use the thresholds the "
+       "tools document; hover a count for its source.</p>\n";
+  o << "<table id=\"measures\"><tr><th class=\"l\">measure</th><th class=\"l\">better</th><th>ideal</th>";
+  for (const auto& r : rows) o << "<th>worst " << r.first << "</th><th>mean " << r.first << "</th>";
+  o << "<th class=\"l\">fail counts";
+  if (two) o << " (before → after)";
+  o << "</th><th class=\"l\">formula</th></tr>\n";
+  for (const MeasureInfo& mi : kMeasures) {
+    if (mi.per_face && !faces) continue;
+    const bool deg = mi.unit[0] != '\0';
+    const char* fm = deg ? "%.2f°" : "%.4f";
+    o << "<tr data-measure=\"" << mi.key << "\"><td class=\"l\" title=\"" << esc(mi.source) << "\">"
+      << esc(mi.name) << "</td><td class=\"l\">" << (mi.better == Better::Higher ? "higher" : "lower")
+      << "</td><td>" << f(fm, mi.ideal) << "</td>";
+    for (const auto& r : rows) {
+      const MeasureSummary& x = (*r.second)[mi.id];
+      o << "<td>" << f(fm, x.worst) << "</td><td>" << f(fm, x.mean) << "</td>";
+    }
+    o << "<td class=\"l\">";
+    for (int k = 0; k < mi.n_thresholds; ++k) {
+      o << (k ? "; " : "") << "<span title=\"" << esc(mi.thresholds[k].source) << "\">" << esc(mi.thresholds[k].meaning)
+        << ": ";
+      for (size_t j = 0; j < rows.size(); ++j)
+        o << (j ? " → " : "") << (*rows[j].second)[mi.id].fail[static_cast<size_t>(k)];
+      o << "</span>";
+    }
+    if (mi.bands.n > 0) {
+      o << "<br><span title=\"" << esc(mi.bands.source) << "\">bands:";
+      for (int k = 0; k < mi.bands.n; ++k) {
+        o << " " << mi.bands.name[k] << " ";
+        for (size_t j = 0; j < rows.size(); ++j)
+          o << (j ? " → " : "") << (*rows[j].second)[mi.id].band[static_cast<size_t>(k)];
+      }
+      o << "</span>";
+    }
+    o << "</td><td class=\"l\">" << esc(mi.formula) << "</td></tr>\n";
+  }
+  o << "</table>\n";
+  if (faces) {
+    o << "<p id=\"faces\">Faces: " << in.before.measures.interior_faces << " interior, "
+      << in.before.measures.boundary_faces << " boundary";
+    if (two) o << " (after: " << in.after.measures.interior_faces << ", " << in.after.measures.boundary_faces << ")";
+    o << ". checkMesh's average non-orthogonality (acos of the mean cosine): "
+      << f("%.2f°", in.before.measures.non_orthogonality_checkmesh_average);
+    if (two) o << " → " << f("%.2f°", in.after.measures.non_orthogonality_checkmesh_average);
+    o << ". Skewness counts boundary faces too (checkMesh's boundaryFaceSkewness); worst interior "
+      << f("%.4f", in.before.measures.skewness_interior_worst) << ", boundary "
+      << f("%.4f", in.before.measures.skewness_boundary_worst) << ".</p>\n";
+  } else {
+    o << "<p class=\"note\">Face measures not computed (no face adjacency).</p>\n";
+  }
+  o << "<p class=\"note\">In each histogram the first bin also holds the values below its range and the last "
+       "those above it.</p>\n<div class=\"charts\">\n";
+  std::vector<std::string> names = {rows[0].first};
+  if (two) names.push_back("after");
+  for (const MeasureInfo& mi : kMeasures) {
+    if (mi.id == Measure::Alpha) continue;  // drawn above
+    if (mi.per_face && !faces) continue;
+    std::vector<Histogram> hs;
+    for (const auto& r : rows) hs.push_back({mi.hist_lo, mi.hist_hi, (*r.second)[mi.id].histogram});
+    if (hs[0].counts.empty()) continue;
+    std::vector<const Histogram*> ser;
+    for (const Histogram& h : hs) ser.push_back(&h);
+    const bool deg = mi.unit[0] != '\0';
+    const int nb = mi.hist_bins;
+    o << "<div class=\"chart\">"
+      << svg_histogram(std::string("hist-") + mi.key,
+                       std::string(mi.key) + (mi.per_face ? " (per face)" : " (per tet)"), deg ? "°" : "",
+                       ser, names, std::max(1, nb / (deg ? 6 : 5)), deg ? "%.0f" : "%.2g", deg ? "%.0f" : "%.3g",
+                       std::string(mi.key) + (deg ? " (degrees)" : ""), false)
+      << "</div>\n";
+  }
+  o << "</div>\n";
 }
 
 void run_tables(std::ostringstream& o, const HtmlReportInput& in) {
@@ -341,13 +429,15 @@ std::string html_report(const HtmlReportInput& in) {
   const int abins = static_cast<int>(in.before_hist.alpha.counts.size());
   const int dbins = static_cast<int>(in.before_hist.dihedral.counts.size());
   o << "<div class=\"chart\">"
-    << svg_histogram("hist-alpha", "α (one per tet)", "", sa, names, std::max(1, abins / 10), "%.1f", "%.2f")
+    << svg_histogram("hist-alpha", "α (one per tet)", "", sa, names, std::max(1, abins / 10), "%.1f", "%.2f", "α",
+                     true)
     << "</div>\n";
   o << "<div class=\"chart\">"
     << svg_histogram("hist-dihedral", "dihedral angles (6 per tet)", "°", sd, names,
-                     std::max(1, dbins / 6), "%.0f", "%.0f")
+                     std::max(1, dbins / 6), "%.0f", "%.0f", "dihedral angle (degrees)", false)
     << "</div>\n</div>\n";
   stats_tables(o, in);
+  if (in.before.measures.computed) measures_section(o, in);
   run_tables(o, in);
   diagnosis_section(o, in);
   o << "<p class=\"note\">Written by tetopt. This page is self-contained: no network, no external scripts or "

@@ -292,7 +292,7 @@ void stats_block(const TetMesh& m, int32_t t0, int32_t t1, StatsPart& p) {
 }
 }  // namespace
 
-QualityStats compute_stats(const TetMesh& m, int threads) {
+QualityStats compute_stats(const TetMesh& m, int threads, bool measures) {
   const int32_t nt = m.nt();
   // Fixed blocks merged in order: the same numbers for every thread count.
   StatsPart all;
@@ -328,6 +328,7 @@ QualityStats compute_stats(const TetMesh& m, int threads) {
   s.alpha_interior_mean = s.kind_count[0] ? inr.value() / s.kind_count[0] : NAN;
   if (!s.boundary_tets) s.alpha_boundary_worst = NAN;
   if (!s.kind_count[0]) s.alpha_interior_worst = NAN;
+  if (measures) s.measures = compute_measure_stats(m, threads);
   return all.s;
 }
 
@@ -395,7 +396,8 @@ std::string stats_to_json(const QualityStats& s, int indent) {
   h = "[";
   for (size_t i = 0; i < s.dihedral_histogram.size(); ++i)
     h += (i ? ", " : "") + std::to_string(s.dihedral_histogram[i]);
-  kv("dihedral_histogram_10deg", h + "]", true);
+  kv("dihedral_histogram_10deg", h + "]", !s.measures.computed);
+  if (s.measures.computed) o << measure_stats_to_json(s.measures, indent) << "\n";
   o << std::string(indent > 2 ? indent - 2 : 0, ' ') << "}";
   return o.str();
 }

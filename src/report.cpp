@@ -43,6 +43,38 @@ std::string format_stats_table(const QualityStats& s) {
   o << "  α<0.1: " << s.alpha_below_01 << "  α<0.2: " << s.alpha_below_02 << "  α<0.3: " << s.alpha_below_03
     << "  inverted/flat: " << s.inverted_or_flat << "  tets with an angle <5°: " << s.dihedral_below_5
     << "  >175°: " << s.dihedral_above_175 << "\n";
+  if (s.measures.computed) o << format_measures_table(s.measures);
+  return o.str();
+}
+
+std::string format_measures_table(const MeasureStats& ms) {
+  std::ostringstream o;
+  o << "  measure (better)                        worst       mean      ideal  fail counts\n";
+  for (const MeasureInfo& mi : kMeasures) {
+    if (mi.per_face && !ms.faces_measured) continue;
+    const MeasureSummary& x = ms[mi.id];
+    const bool deg = mi.unit[0] != '\0';
+    const char* f = deg ? "%10.2f" : "%10.4f";
+    char name[64];
+    std::snprintf(name, sizeof name, "%s (%s)", mi.key, mi.better == Better::Higher ? "higher" : "lower");
+    char head[80];
+    std::snprintf(head, sizeof head, "  %-36s", name);
+    o << head << fmt(f, x.worst) << " " << fmt(f, x.mean) << " " << fmt(f, mi.ideal) << " ";
+    for (int k = 0; k < mi.n_thresholds; ++k)
+      o << " " << mi.thresholds[k].meaning << ": " << x.fail[static_cast<size_t>(k)]
+        << (k + 1 < mi.n_thresholds ? "," : "");
+    o << "\n";
+    if (mi.bands.n > 0) {
+      o << "  " << std::string(36, ' ') << " bands:";
+      for (int k = 0; k < mi.bands.n; ++k) o << " " << mi.bands.name[k] << " " << x.band[static_cast<size_t>(k)];
+      o << "\n";
+    }
+  }
+  if (ms.faces_measured)
+    o << "  faces: " << ms.interior_faces << " interior, " << ms.boundary_faces
+      << " boundary; checkMesh's average non-orthogonality " << fmt("%.2f", ms.non_orthogonality_checkmesh_average)
+      << "°, skewness worst interior " << fmt("%.4f", ms.skewness_interior_worst) << ", boundary "
+      << fmt("%.4f", ms.skewness_boundary_worst) << "\n";
   return o.str();
 }
 
@@ -80,6 +112,38 @@ std::string format_histograms(const QualityStats& s) {
     std::snprintf(b, sizeof b, "  %3zu-%3zu %10lld ", i * 10, (i + 1) * 10,
                   static_cast<long long>(s.dihedral_histogram[i]));
     o << b << bar(s.dihedral_histogram[i], md, 40) << "\n";
+  }
+  if (s.measures.computed) o << format_measure_histograms(s.measures);
+  return o.str();
+}
+
+std::string format_measure_histograms(const MeasureStats& ms) {
+  std::ostringstream o;
+  for (const MeasureInfo& mi : kMeasures) {
+    if (mi.id == Measure::Alpha) continue;  // format_histograms' first one
+    if (mi.per_face && !ms.faces_measured) continue;
+    const MeasureSummary& x = ms[mi.id];
+    if (x.histogram.empty()) continue;
+    const bool deg = mi.unit[0] != '\0';
+    o << "  " << mi.key << " histogram (" << (mi.per_face ? "one per face" : "one per tet")
+      << "; the first bin holds the values below it, the last those above)\n";
+    // At most 10 rows: adjacent bins merged (the JSON and HTML keep them all).
+    const size_t n = x.histogram.size(), group = (n + 9) / 10;
+    std::vector<int64_t> rows;
+    for (size_t i = 0; i < n; ++i) {
+      if (i % group == 0) rows.push_back(0);
+      rows.back() += x.histogram[i];
+    }
+    const int64_t mx = *std::max_element(rows.begin(), rows.end());
+    for (size_t r = 0; r < rows.size(); ++r) {
+      const double w = (mi.hist_hi - mi.hist_lo) / static_cast<double>(n);
+      const double lo = mi.hist_lo + w * static_cast<double>(r * group);
+      const double hi = mi.hist_lo + w * static_cast<double>(std::min(n, (r + 1) * group));
+      char b[80];
+      std::snprintf(b, sizeof b, deg ? "  %6.1f-%-6.1f %10lld " : "  %6.3f-%-6.3f %10lld ", lo, hi,
+                    static_cast<long long>(rows[r]));
+      o << b << bar(rows[r], mx, 40) << "\n";
+    }
   }
   return o.str();
 }
@@ -204,7 +268,7 @@ Status write_cell_fields_vtu(const std::string& path, const TetMesh& m, const st
   return write_file_atomic(path, o.str());
 }
 
-std::vector<CellField> quality_cell_fields(const TetMesh& m) {
+std::vector<CellField> quality_cell_fields(const TetMesh& m, int threads) {
   TetQualityFields q = compute_fields(m);
   std::vector<CellField> f;
   f.push_back({"alpha", std::move(q.alpha), false});
@@ -212,6 +276,16 @@ std::vector<CellField> quality_cell_fields(const TetMesh& m) {
   f.push_back({"dihedral_max", std::move(q.dihedral_max), false});
   f.push_back({"kind", std::vector<double>(m.tet_kind.begin(), m.tet_kind.end()), true});
   f.push_back({"region", std::vector<double>(m.tet_ref.begin(), m.tet_ref.end()), true});
+  // The other measures of measures.hpp; a face measure as the worst over
+  // the tet's faces.
+  for (const MeasureInfo& mi : kMeasures) {
+    if (mi.id == Measure::Alpha || mi.id == Measure::DihedralMin || mi.id == Measure::DihedralMax) continue;
+    if (mi.per_face && m.adj.size() != m.tets.size()) continue;
+    std::string name = mi.key;
+    if (mi.id == Measure::NonOrthogonality) name = "non_orthogonality_max";
+    if (mi.id == Measure::FaceSkewness) name = "face_skewness_max";
+    f.push_back({name, compute_measure_field(m, mi.id, threads), false});
+  }
   return f;
 }
 

@@ -9,9 +9,14 @@
 // every tet left below the threshold (diagnose.hpp) with the worst ones
 // listed, and the boundary-unchanged verdict.
 //
+// A "Measures" section shows every measure of measures.hpp (table
+// id="measures", one <tr data-measure="KEY"> each: worst, mean, the counts
+// failing the documented thresholds with their sources) and its histogram.
+//
 // Structure the tests rely on: each histogram is an <svg class="hist"> with
-// id "hist-alpha" or "hist-dihedral" holding one <rect class="bar ..."> per
-// bin and series (data-count = the count); the script sets
+// id "hist-alpha", "hist-dihedral" or "hist-KEY" (KEY a measure's JSON key:
+// hist-sine_min, hist-non_orthogonality, ...) holding one <rect class="bar
+// ..."> per bin and series (data-count = the count); the script sets
 // data-report-ready="1" on <html> when it has run.
 //
 // Pure formatting: nothing here modifies a mesh or prints.

@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+#include "tetopt/measures.hpp"
+
 namespace tetopt {
 
 struct TetMesh;
@@ -63,11 +65,18 @@ struct QualityStats {
   std::array<int64_t, 10> alpha_histogram{};       ///< bins of 0.1 over [0,1]; <0 goes to bin 0
   std::array<int64_t, 18> dihedral_histogram{};    ///< 10-degree bins of all 6*nt angles
   int32_t worst_tet = -1;
+  /// Every measure of measures.hpp (its table): worst, mean, histogram and
+  /// threshold counts per tet measure, and checkMesh's face measures; only
+  /// when compute_stats was asked for them (measures.computed).
+  MeasureStats measures;
 };
 
 /// threads: worker threads for the loop over tets (0 = all cores); the result is the same
-/// for every count (fixed blocks merged in order).
-QualityStats compute_stats(const TetMesh& m, int threads = 1);
+/// for every count (fixed blocks merged in order).  measures: also fill
+/// QualityStats::measures (compute_measure_stats: every measure of
+/// measures.hpp, about 5-8 times the cost of the rest, so off where only
+/// alpha and the dihedral angles are wanted, as in improve's before/after).
+QualityStats compute_stats(const TetMesh& m, int threads = 1, bool measures = false);
 
 /// Per-tet arrays (nt each) for fields and reports.
 struct TetQualityFields {
@@ -75,7 +84,8 @@ struct TetQualityFields {
 };
 TetQualityFields compute_fields(const TetMesh& m);
 
-/// JSON object text for stats (keys match meshcheck.py stats --json where they overlap).
+/// JSON object text for stats (keys match meshcheck.py stats --json where they overlap);
+/// the measures of measures.hpp, when computed, in the nested objects "measures" and "faces".
 std::string stats_to_json(const QualityStats& s, int indent = 2);
 
 }  // namespace tetopt
