@@ -237,7 +237,7 @@ int cmd_quality(const std::vector<std::string>& args) {
   TetMesh m;
   if (!load_mesh(in, m, quiet || json, threads)) return kExitInput;
   dopt.threads = threads;
-  const QualityStats s = compute_stats(m, threads);
+  const QualityStats s = compute_stats(m, threads, /*measures=*/true);
   const Diagnosis diag = diagnose(m, dopt);
   if (json) {
     std::string js = stats_to_json(s);
