@@ -575,7 +575,7 @@ py::tuple quality_mesh(const py::dict& d, bool diagnose, double threshold) {
   tetopt::TetQualityFields f;
   {
     py::gil_scoped_release nogil;
-    st = tetopt::compute_stats(m);
+    st = tetopt::compute_stats(m, 1, /*measures=*/true);  // as `tetopt quality --json`
     f = tetopt::compute_fields(m);
   }
   const auto nt = static_cast<py::ssize_t>(m.nt());
