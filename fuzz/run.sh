@@ -7,6 +7,10 @@
 #   FUZZ_JOBS=N    build parallelism (default 2)
 #   FUZZ_NOBUILD=1 run the targets already built in build-fuzz
 #   FUZZ_SEED=S    libFuzzer seed (default 1, so a CI run is repeatable; 0 = random)
+# fuzz/corpus/TARGET holds the seeds (seed-*: valid files of every variant,
+# written by fuzz/make_seeds.py; fuzz/check_seeds.sh proves each is read) and
+# the merged inputs of earlier runs; fuzz/dict/TARGET.dict, when present, is
+# passed as -dict= (the format's keywords).
 # New inputs found during a run go to build-fuzz/corpus/TARGET (not committed);
 # crashes go to build-fuzz/artifacts/ and make the script exit 1.  Every
 # crash must become a regression test (tests/regression/, test_hostile.cpp).
@@ -29,9 +33,10 @@ status=0
 for t in $targets; do
   work="$build/corpus/$t"; seeds="$here/corpus/$t"
   mkdir -p "$work" "$seeds"
+  dict=(); [ -f "$here/dict/$t.dict" ] && dict=(-dict="$here/dict/$t.dict")
   echo "== fuzz $t for ${secs}s"
   "$build/fuzz/${t}_fuzz" -seed="${FUZZ_SEED:-1}" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
-      -artifact_prefix="$build/artifacts/${t}-" -print_final_stats=1 "$work" "$seeds" 2>&1 |
+      "${dict[@]}" -artifact_prefix="$build/artifacts/${t}-" -print_final_stats=1 "$work" "$seeds" 2>&1 |
     grep -E "^(#[0-9]+ +DONE|==[0-9]+==ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|Test unit written|runtime error" 
   rc=${PIPESTATUS[0]}
   if [ "$rc" -ne 0 ]; then echo "fuzz $t: FAILED (exit $rc), see $build/artifacts/" >&2; status=1; fi
