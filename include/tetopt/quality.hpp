@@ -74,7 +74,7 @@ struct QualityStats {
 /// threads: worker threads for the loop over tets (0 = all cores); the result is the same
 /// for every count (fixed blocks merged in order).  measures: also fill
 /// QualityStats::measures (compute_measure_stats: every measure of
-/// measures.hpp, about 5-8 times the cost of the rest, so off where only
+/// measures.hpp, about 4-5 times the cost of the rest, so off where only
 /// alpha and the dihedral angles are wanted, as in improve's before/after).
 QualityStats compute_stats(const TetMesh& m, int threads = 1, bool measures = false);
 
