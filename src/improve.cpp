@@ -26,8 +26,8 @@ double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::
 class Driver {
  public:
   Driver(TetMesh& m, const ImproveOptions& o, ImproveReport& r, const LogFn& log,
-         const std::atomic<bool>* interrupted)
-      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted), threads_(o.threads) {
+         const std::atomic<bool>* interrupted, Guard* guard)
+      : m_(m), o_(o), r_(r), log_(log), stop_(interrupted), threads_(o.threads), guard_(guard) {
     // The passes' own Info lines are detail at the driver's level.
     if (log_)
       sub_log_ = [this](LogLevel l, const std::string& s) { log_(l == LogLevel::Info ? LogLevel::Debug : l, s); };
@@ -50,6 +50,8 @@ class Driver {
     so.optimizer = maxmin ? Optimizer::MaxMin : Optimizer::Paper;
     so.seed = seed;
     so.threads = o_.threads;
+    so.objective = o_.objective;
+    so.guard = guard_;
     return so;
   }
 
@@ -81,6 +83,8 @@ class Driver {
     to.passes = 3;
     to.threads = threads_;
     to.rebuild_stars = false;
+    to.objective = o_.objective;
+    to.guard = guard_;
     TopoStats st = remove_all_boundary_tets(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
@@ -94,6 +98,8 @@ class Driver {
     to.passes = kPairPasses;
     to.threads = threads_;
     to.rebuild_stars = false;
+    to.objective = o_.objective;
+    to.guard = guard_;
     TopoStats st = pair_flip_pass(m_, to, kPairBand, kPairMax, /*stop_at_worst=*/true, sub_log_, &alpha_);
     add(st, since(t));
     r_.pair_flips += st.pairs;
@@ -107,6 +113,8 @@ class Driver {
     to.passes = 3;
     to.threads = threads_;
     to.rebuild_stars = false;
+    to.objective = o_.objective;
+    to.guard = guard_;
     TopoStats st = flip_pass(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
@@ -202,7 +210,9 @@ class Driver {
     // the worst tets cannot reorganise thousands of vertices (relax.hpp).
     if (relax_wanted(m_, RelaxOptions{}, o_.threads)) {
       const auto t = Clock::now();
-      const RelaxStats rs = relax_pass(m_, RelaxOptions{}, sub_log_);
+      RelaxOptions ro;
+      ro.guard = guard_;
+      const RelaxStats rs = relax_pass(m_, ro, sub_log_);
       alpha_.clear();
       r_.smooth_moves += rs.moves;
       r_.smooth_tried += rs.moves + rs.put_back;
@@ -216,6 +226,7 @@ class Driver {
     int stale = 0;
     bool capped = false;  // gamma was last raised to the widest affordable set, not by 0.1
     for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
+      if (round > 0) refresh_guard();
       progress("round " + std::to_string(round + 1) + ": worst alpha " + std::to_string(prev_worst));
       if (Status s = algorithm4(true, gamma); !s) return s;
       if (Status s = flips(gamma); !s) return s;
@@ -234,6 +245,8 @@ class Driver {
         io.quality_threshold = std::min(gamma, worst() + kInsertBand);
         io.insert = o_.allow_insert;
         io.remove = o_.allow_remove;
+        io.objective = o_.objective;
+        io.guard = guard_;
         const InsertStats is = insert_pass(m_, io, sub_log_);
         alpha_.clear();
         r_.insertions += is.inserted;
@@ -291,6 +304,7 @@ class Driver {
     // angles of the poor tets, with the current worst alpha as a floor so it
     // never undoes what the rounds reached.
     if (!stopped()) {
+      refresh_guard();
       const auto t = Clock::now();
       TopoOptions d;
       d.measure = TopoMeasure::Dihedral;
@@ -298,6 +312,8 @@ class Driver {
       d.passes = 2;
       d.threads = threads_;
       d.rebuild_stars = false;
+      d.objective = o_.objective;
+      d.guard = guard_;
       d.alpha_floor = worst();
       d.alpha_keep = kDihedralAlphaKeep;
       d.angle_keep = kDihedralAngleKeep;
@@ -310,13 +326,57 @@ class Driver {
     return Status::success();
   }
 
+  // Mean alpha guard (issue 26): when the run so far left the mean alpha
+  // below the input's (rounds that raise the worst tets may trade some of
+  // the others: tire 0.6496 -> 0.6369), one smoothing phase over every free
+  // vertex with the paper's sum of 1/q (which rewards every tet, not only
+  // the worst) and the guards, never lowering any star's worst q.  Returns
+  // the mean alpha after.
+  static constexpr int kPolishSweeps = 10;
+  double polish_mean(double mean_before) {
+    double mean = mean_alpha();
+    if (!(mean < mean_before) || stopped()) return mean;
+    refresh_guard();
+    if (Status st = flips(1.01); !st) return mean;  // every tet: flips that raise a local worst
+    SmoothOptions so = smooth_opts(1.01, kPolishSweeps, false, o_.seed + 0x9E3779B97F4A7C15ull);
+    so.all_vertices = true;
+    so.weight = 0.5;  // every tet alike: the mean counts them alike
+    smooth(so);
+    mean = mean_alpha();
+    info("mean alpha polish: " + std::to_string(mean_before) + " wanted, " + std::to_string(mean) + " reached");
+    return mean;
+  }
+  // The guards' extremes are those of the mesh now (guard.hpp): the extremes
+  // a round reached are not given back by a later round, the final dihedral
+  // pass or the polish.  About one measure pass over the tets each, taken
+  // only when a tet holding an extreme has changed (Guard::stale).
+  void refresh_guard() {
+    if (!guard_ || !guard_->stale(m_)) return;
+    const auto t = Clock::now();
+    Guard::take(m_, threads_, *guard_);
+    ++r_.guard_takes;
+    r_.seconds_check += since(t);
+  }
+  double mean_alpha() const {
+    if (m_.nt() == 0) return 0;
+    const double sum = detail::parallel_reduce_blocks(
+        m_.nt(), threads_, 0.0,
+        [&](int64_t b, int64_t e) {
+          double x = 0;
+          for (int64_t t = b; t < e; ++t) x += tet_alpha(m_, static_cast<int32_t>(t));
+          return x;
+        },
+        [](double x, double y) { return x + y; });
+    return sum / m_.nt();
+  }
+
   // The per-tet alpha cache shared by the topology and smoothing passes
   // (filled on demand; every pass that edits the mesh outside them clears it).
   void ensure_cache() {
     if (static_cast<int32_t>(alpha_.size()) == m_.nt()) return;
     alpha_.resize(m_.nt());
     detail::parallel_for_each(m_.nt(), threads_,
-                              [&](int64_t t) { alpha_[t] = tet_alpha(m_, static_cast<int32_t>(t)); });
+                              [&](int64_t t) { alpha_[t] = tet_objective(m_, static_cast<int32_t>(t), o_.objective); });
   }
   double worst() {
     ensure_cache();
@@ -360,6 +420,7 @@ class Driver {
   LogFn sub_log_;
   const std::atomic<bool>* stop_;
   int threads_;
+  Guard* guard_;
   std::vector<double> alpha_;  // tet_alpha of every tet when its size is nt (see ensure_cache)
 };
 }  // namespace
@@ -401,11 +462,31 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
 
   if (opt.weight < 0.5 || opt.weight >= 1.0)
     return Status::error(ErrorCode::InvalidMesh, "improve: weight C must satisfy 0.5 <= C < 1");
-  Driver d(m, opt, rep, log, interrupted);
+  // Guards: the extremes of the mesh as it is now (untangled), so that no
+  // stage ends the run worse than its input on any per-tet measure.
+  Guard guard;
+  if (opt.guard) {
+    const auto tg = Clock::now();
+    guard.set_floor(opt.guard_floor);
+    Guard::take(m, opt.threads, guard);
+    rep.guard_takes = 1;
+    guard.exempt(objective_measure(opt.objective));
+    rep.seconds_check += since(tg);
+  }
+  Driver d(m, opt, rep, log, interrupted, opt.guard ? &guard : nullptr);
   // The topology passes run without rebuilding the vertex stars after each
   // (TopoOptions::rebuild_stars); the caller gets them built, error or not.
-  const Status run_status = d.run();
+  Status run_status = d.run();
+  if (run_status && opt.guard && opt.mode == ImproveMode::Best) {
+    ensure_vertex_tets(m, opt.threads);
+    d.polish_mean(rep.before.alpha_mean);
+  }
   ensure_vertex_tets(m, opt.threads);
+  rep.guard_on = guard.on();
+  for (int k = 0; k < kTetMeasureCount && guard.on(); ++k) {
+    rep.guard_extreme[static_cast<size_t>(k)] = guard.extreme(static_cast<Measure>(k));
+    rep.guard_refused[static_cast<size_t>(k)] = guard.refused(static_cast<Measure>(k));
+  }
   if (!run_status) return run_status;
 
   if (opt.check_invariants) {
@@ -441,7 +522,8 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
     << (o.maxmin_optimizer ? "maxmin" : "paper") << "\", \"weight\": " << num(o.weight)
     << ", \"threshold\": " << num(o.threshold) << ", \"iterations\": " << o.iterations << ", \"seed\": " << o.seed
     << ", \"threads\": " << detail::resolve_threads(o.threads) << ", \"allow_insert\": " << (o.allow_insert ? "true" : "false")
-    << ", \"allow_remove\": " << (o.allow_remove ? "true" : "false") << "},\n";
+    << ", \"allow_remove\": " << (o.allow_remove ? "true" : "false") << ", \"objective\": \""
+    << objective_name(o.objective) << "\", \"guard\": " << (o.guard ? "true" : "false") << "},\n";
   j << "  \"before\": " << stats_to_json(r.before, 4) << ",\n";
   j << "  \"after\": " << stats_to_json(r.after, 4) << ",\n";
   j << "  \"operations\": {\"smoothing_moves\": " << r.smooth_moves << ", \"smoothing_tried\": " << r.smooth_tried
@@ -463,6 +545,22 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
     for (size_t i = 0; i < ids.size(); ++i) j << (i ? ", " : "") << ids[i];
     j << "],\n";
   }
+  // Guards: the extreme each measure held and how many operations it
+  // refused (the first measure a refused tet failed, in guard.cpp's order).
+  j << "  \"guards\": {\"on\": " << (r.guard_on ? "true" : "false");
+  if (r.guard_on) {
+    int64_t total = 0;
+    for (int64_t n : r.guard_refused) total += n;
+    j << ", \"refused_total\": " << total << ", \"extremes_taken\": " << r.guard_takes << ", \"measures\": {";
+    for (int k = 0; k < kTetMeasureCount; ++k) {
+      const MeasureInfo& mi = kMeasures[static_cast<size_t>(k)];
+      const double x = r.guard_extreme[static_cast<size_t>(k)];
+      j << (k ? ", " : "") << "\"" << mi.key << "\": {\"extreme\": " << (std::isfinite(x) ? num(x) : "null")
+        << ", \"refused\": " << r.guard_refused[static_cast<size_t>(k)] << "}";
+    }
+    j << "}";
+  }
+  j << "},\n";
   j << "  \"seconds\": {\"total\": " << num(r.seconds_total) << ", \"smoothing\": " << num(r.seconds_smooth)
     << ", \"topology\": " << num(r.seconds_topo) << ", \"invariant_check\": " << num(r.seconds_check) << "},\n";
   j << "  \"boundary_unchanged\": {\"checked\": " << (r.invariants_checked ? "true" : "false")

@@ -26,6 +26,8 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   st.tets_before = m.nt();
   TopoOptions to;
   to.margin = o.margin;
+  to.objective = o.objective;
+  to.guard = o.guard;
   TopoEditor ed(m, to);
   st.alpha_worst_before = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t) st.alpha_worst_before = std::min(st.alpha_worst_before, ed.cached_alpha(t));

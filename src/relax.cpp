@@ -113,7 +113,7 @@ void vertex_graph(const TetMesh& m, std::vector<int32_t>& off, std::vector<int32
 // One Jacobi relaxation step (essay steps 2 and 3).  Returns accepted moves
 // and adds put-backs to *put_back.
 int64_t jacobi_step(TetMesh& m, const std::vector<double>& h, double step, double alpha_floor,
-                    std::vector<double>& alpha_old, int64_t* put_back) {
+                    std::vector<double>& alpha_old, int64_t* put_back, const Guard* guard) {
   const int32_t nv = m.nv(), nt = m.nt();
   alpha_old.resize(static_cast<size_t>(nt));
   for (int32_t t = 0; t < nt; ++t) alpha_old[t] = tet_alpha(m, t);
@@ -160,7 +160,8 @@ int64_t jacobi_step(TetMesh& m, const std::vector<double>& h, double step, doubl
     const int32_t* q = m.tet(t);
     if (orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) != Sign::Positive) return false;
     const double a = tet_alpha(m, t);
-    return a >= std::min(alpha_old[t], alpha_floor);
+    if (!(a >= std::min(alpha_old[t], alpha_floor))) return false;
+    return !guard || guard->admits(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3]));
   };
 
   // Attempt 0 moves every movable vertex by `step`; attempts 1 and 2 retry
@@ -298,6 +299,7 @@ RelaxStats relax_pass(TetMesh& m, const RelaxOptions& o, const LogFn& log) {
     TopoOptions to;
     to.quality_threshold = o.flip_threshold;
     to.passes = 1;
+    to.guard = o.guard;
     const TopoStats ts = flip_pass(m, to);
     if (!ts.status) {
       st.status = ts.status;
@@ -306,7 +308,7 @@ RelaxStats relax_pass(TetMesh& m, const RelaxOptions& o, const LogFn& log) {
     st.flips += ts.applied();
     const std::vector<double> h = relax_size_field(m, o.gradation);
     int64_t moved = 0;
-    for (int k = 0; k < o.steps; ++k) moved += jacobi_step(m, h, o.step, o.alpha_floor, alpha_old, &st.put_back);
+    for (int k = 0; k < o.steps; ++k) moved += jacobi_step(m, h, o.step, o.alpha_floor, alpha_old, &st.put_back, o.guard);
     st.moves += moved;
     st.rounds = round + 1;
     s = summarize(m);

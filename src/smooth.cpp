@@ -2,6 +2,7 @@
 // (Liu, Dai, Dong, Tan 2012, §3; Freitag, Jones, Plassmann 1995; Freitag &
 // Ollivier-Gooch 1997).  See smooth.hpp for the model and the commit rule.
 #include "tetopt/smooth.hpp"
+#include "tetopt/objective.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -53,11 +54,14 @@ struct LocalTet {
   int32_t ia, ib, ic;  // mesh ids of a, b, c (exact check)
   int32_t t;
   int32_t slot;   // local index of the free vertex in tet t
+  Objective obj;  // what e = 1/q measures (objective.hpp); Alpha: the analytic path below
 };
 
-void make_local(const TetMesh& m, int32_t t, int slot, const double* origin, double w, LocalTet& L) {
+void make_local(const TetMesh& m, int32_t t, int slot, const double* origin, double w, LocalTet& L,
+                Objective obj = Objective::Alpha) {
   const int32_t* tv = m.tet(t);
   L.t = t;
+  L.obj = obj;
   L.slot = slot;
   L.ia = tv[kFaceVertex[slot][0]];
   L.ib = tv[kFaceVertex[slot][1]];
@@ -82,7 +86,10 @@ void make_local(const TetMesh& m, int32_t t, int slot, const double* origin, dou
 //   grad D = -n0 (constant);  grad |n| for a face (x, p, q) with
 //   n = (p-x) x (q-x) is (p-q) x n/|n|;  grad L = (x - y)/L when the
 //   longest edge is x-y, else 0.
+double objective_error(const LocalTet& T, const double* x, double* g);
+
 inline double local_error(const LocalTet& T, const double* x, double* g) {
+  if (T.obj != Objective::Alpha) return objective_error(T, x, g);
   double u[3], w[3], z[3];
   sub(T.a, x, u);
   sub(T.b, x, w);
@@ -126,6 +133,37 @@ inline double local_error(const LocalTet& T, const double* x, double* g) {
   return e;
 }
 
+// e = 1/q for an objective other than alpha (objective.hpp), q of the tet
+// (x, a, b, c); +inf when q <= 0.  The gradient, when asked for, by central
+// differences with a step of 1e-7 of the tet's longest fixed edge (each of
+// the measures is smooth where it is positive, up to the switch of the
+// active angle or corner that the optimisers already handle for alpha).
+double objective_error(const LocalTet& T, const double* x, double* g) {
+  const double q = objective_quality(T.obj, x, T.a, T.b, T.c);
+  if (!(q > 0)) {
+    if (g) g[0] = g[1] = g[2] = 0;
+    return kInf;
+  }
+  const double e = 1.0 / q;
+  if (g) {
+    const double h = 1e-7 * std::sqrt(T.lfix2);
+    for (int k = 0; k < 3; ++k) {
+      double xp[3] = {x[0], x[1], x[2]}, xm[3] = {x[0], x[1], x[2]};
+      xp[k] += h;
+      xm[k] -= h;
+      const double qp = objective_quality(T.obj, xp, T.a, T.b, T.c);
+      const double qm = objective_quality(T.obj, xm, T.a, T.b, T.c);
+      // d(1/q) = -dq / q^2; a side where q <= 0 falls back to one-sided.
+      double dq = 0;
+      if (qp > 0 && qm > 0) dq = (qp - qm) / (2 * h);
+      else if (qp > 0) dq = (qp - q) / h;
+      else if (qm > 0) dq = (q - qm) / h;
+      g[k] = -dq * e * e;
+    }
+  }
+  return e;
+}
+
 using detail::Sum;
 
 inline double clamp_weight(double w) {
@@ -151,6 +189,7 @@ struct Scratch {
   double origin[3] = {0, 0, 0};
   double mean_len = 0;
   int n = 0;
+  Objective obj = Objective::Alpha;
 };
 
 void gather(const TetMesh& m, int32_t v, double C, Scratch& s) {
@@ -164,7 +203,7 @@ void gather(const TetMesh& m, int32_t v, double C, Scratch& s) {
   for (int i = 0; i < n; ++i) {
     const int32_t t = b[i];
     LocalTet& L = s.tets[i];
-    make_local(m, t, slot_of(m, t, v), s.origin, tet_weight(m, t, C), L);
+    make_local(m, t, slot_of(m, t, v), s.origin, tet_weight(m, t, C), L, s.obj);
     len += norm(L.a) + norm(L.b) + norm(L.c);
   }
   s.mean_len = n ? len / (3.0 * n) : 0.0;
@@ -212,14 +251,14 @@ double star_worst_alpha(const Scratch& s, const double* x) {
 // tet's own vertex order).
 // When alphas_out is given, it receives each star tet's alpha (CSR order).
 void star_at(const TetMesh& m, int32_t v, const double* p, double C, double* f_out, double* worst_out,
-             double* alphas_out = nullptr) {
+             double* alphas_out = nullptr, Objective obj = Objective::Alpha) {
   double f = 0, worst = kInf;
   for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
     const int32_t t = *it;
     const int slot = slot_of(m, t, v);
     if (f_out) {
       LocalTet L;
-      make_local(m, t, slot, p, tet_weight(m, t, C), L);
+      make_local(m, t, slot, p, tet_weight(m, t, C), L, obj);
       const double zero[3] = {0, 0, 0};
       const double e = local_error(L, zero, nullptr);
       f = (e == kInf || f == kInf) ? kInf : f + L.w * e;
@@ -228,7 +267,8 @@ void star_at(const TetMesh& m, int32_t v, const double* p, double C, double* f_o
       const int32_t* tv = m.tet(t);
       const double* q[4];
       for (int k = 0; k < 4; ++k) q[k] = k == slot ? p : m.point(tv[k]);
-      const double a = alpha(q[0], q[1], q[2], q[3]);
+      const double a = obj == Objective::Alpha ? alpha(q[0], q[1], q[2], q[3])
+                                               : objective_quality(obj, q[0], q[1], q[2], q[3]);
       worst = std::min(worst, a);
       if (alphas_out) alphas_out[it - m.star_begin(v)] = a;
     }
@@ -512,6 +552,7 @@ SmoothResult solve_vertex(TetMesh& m, int32_t v, const SmoothOptions& o, Scratch
                           double& own_after) {
   if (m.vert_constrained[v] || m.star_begin(v) == m.star_end(v)) return SmoothResult::BoundaryLocked;
   const double C = clamp_weight(o.weight);
+  s.obj = o.objective;
   gather(m, v, C, s);
   if (static_cast<int>(s.star_alpha.size()) < s.n) s.star_alpha.resize(s.n);
   const bool maxmin = o.optimizer == Optimizer::MaxMin;
@@ -520,7 +561,7 @@ SmoothResult solve_vertex(TetMesh& m, int32_t v, const SmoothOptions& o, Scratch
   if (!ok) return SmoothResult::Inverted;
 
   double f_old = 0, worst_old = 0;
-  star_at(m, v, s.origin, C, maxmin ? nullptr : &f_old, &worst_old);
+  star_at(m, v, s.origin, C, maxmin ? nullptr : &f_old, &worst_old, nullptr, o.objective);
   own_before = maxmin ? worst_old : f_old;
   bool inverted = false;
   for (int attempt = 0; attempt < 5; ++attempt, x[0] *= 0.5, x[1] *= 0.5, x[2] *= 0.5) {
@@ -531,7 +572,7 @@ SmoothResult solve_vertex(TetMesh& m, int32_t v, const SmoothOptions& o, Scratch
       continue;
     }
     double f_new = 0, worst_new = 0;
-    star_at(m, v, p, C, maxmin ? nullptr : &f_new, &worst_new, s.star_alpha.data());
+    star_at(m, v, p, C, maxmin ? nullptr : &f_new, &worst_new, s.star_alpha.data(), o.objective);
     bool accept;
     if (maxmin) {
       accept = worst_old > 0 ? worst_new >= worst_old + o.margin * worst_old : worst_new > worst_old;
@@ -540,6 +581,16 @@ SmoothResult solve_vertex(TetMesh& m, int32_t v, const SmoothOptions& o, Scratch
       if (accept && o.protect_worst) accept = worst_new >= worst_old;
     }
     if (!accept) continue;
+    if (o.guard) {  // guards (guard.hpp): no star tet at p worse than the extremes
+      bool admitted = true;
+      for (const int32_t* it = m.star_begin(v); it != m.star_end(v) && admitted; ++it) {
+        const int32_t* tv = m.tet(*it);
+        const double* q4[4];
+        for (int k = 0; k < 4; ++k) q4[k] = tv[k] == v ? p : m.point(tv[k]);
+        admitted = o.guard->admits(q4[0], q4[1], q4[2], q4[3]);
+      }
+      if (!admitted) continue;
+    }
     double* q = m.point(v);
     q[0] = p[0]; q[1] = p[1]; q[2] = p[2];
     own_after = maxmin ? worst_new : f_new;
@@ -661,7 +712,8 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
   std::vector<double>& qa = alpha_cache ? *alpha_cache : own_cache;
   if (static_cast<int32_t>(qa.size()) != nt) {
     qa.resize(nt);
-    detail::parallel_for_each(nt, threads, [&](int64_t t) { qa[t] = tet_alpha(m, static_cast<int32_t>(t)); });
+    detail::parallel_for_each(nt, threads,
+                              [&](int64_t t) { qa[t] = tet_objective(m, static_cast<int32_t>(t), o.objective); });
   }
   // f of eq. 3.4 from the cache: sum of w_T / alpha_T, per fixed block of
   // tets and then over the blocks in order (the same bits for every thread

@@ -224,8 +224,9 @@ bool keeps_levels(const TopoOptions& o, const Old& for_old, const New& for_new) 
   if (o.measure != TopoMeasure::Dihedral) return true;
   if (const double keep = o.alpha_keep; keep > 0) {
     AlphaTally before, after;
-    for_old([&](const double* a, const double* b, const double* c, const double* d) { before.add(alpha(a, b, c, d), keep); });
-    for_new([&](const double* a, const double* b, const double* c, const double* d) { after.add(alpha(a, b, c, d), keep); });
+    const Objective ob = o.objective;
+    for_old([&](const double* a, const double* b, const double* c, const double* d) { before.add(objective_quality(ob, a, b, c, d), keep); });
+    for_new([&](const double* a, const double* b, const double* c, const double* d) { after.add(objective_quality(ob, a, b, c, d), keep); });
     if (!keeps_alpha(before, after, keep)) return false;
   }
   if (const double keep = o.angle_keep; keep > 0) {
@@ -292,7 +293,7 @@ void TopoEditor::fill_cache() {
     const int32_t* v = m_.tet(t);
     const double *a = m_.point(v[0]), *b = m_.point(v[1]), *c = m_.point(v[2]), *d = m_.point(v[3]);
     if (defer) {
-      const double al = alpha(a, b, c, d);
+      const double al = objective_quality(o_.objective, a, b, c, d);
       if (al >= o_.alpha_floor && al > 0) {
         const double* p[4] = {a, b, c, d};
         double n[4][3], nl[4];
@@ -328,14 +329,14 @@ TopoEditor::~TopoEditor() {
 
 double TopoEditor::quality(const double* a, const double* b, const double* c, const double* d) const {
   if (o_.measure == TopoMeasure::Alpha) {
-    const double q = alpha(a, b, c, d);
+    const double q = o_.objective == Objective::Alpha ? alpha(a, b, c, d) : objective_quality(o_.objective, a, b, c, d);
     return q < o_.alpha_floor ? -kInf : q;
   }
   // Dihedral measure: min over the six angles of theta / lo (small angles)
   // or (180 - theta) / (180 - hi) (large angles); 1 when the extremes sit
   // exactly at the targets.  Tets below the alpha floor count as -inf, so a
   // dihedral pass never lowers the mesh's worst alpha.
-  if (alpha(a, b, c, d) < o_.alpha_floor || tet_signed_volume(a, b, c, d) <= 0) return -kInf;
+  if (objective_quality(o_.objective, a, b, c, d) < o_.alpha_floor || tet_signed_volume(a, b, c, d) <= 0) return -kInf;
   // min over the six angles x of x / lo and (180 - x) / (180 - hi): the
   // smallest angle gives the first, the largest the second (division and
   // subtraction round monotonically, so this is the same number).
@@ -690,6 +691,17 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
     if (orient3d(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])) != Sign::Positive)
       return TopoResult::Inverted;
   }
+  // Guards (guard.hpp): no new tet worse than the extremes on any measure;
+  // measured after the exact orientation test, so only valid candidates
+  // count as refused.
+  // The first operation of a pair (any_valid_) is judged with the pair: see
+  // improve_tet_pair.
+  if (o_.guard && !restoring_ && !any_valid_)
+    for (int i = 0; i < c.n_new; ++i) {
+      const int32_t* q = c.quad[i];
+      if (!o_.guard->admits(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3])))
+        return TopoResult::NotImproved;
+    }
   // Outer faces of the cavity; faces between cavity tets must be free.
   auto in_cavity = [&](int32_t o) {
     for (int i = 0; i < c.n_old; ++i)
@@ -1371,7 +1383,19 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t, int reach) {
       for (int i = 0; i < c1.n_new; ++i)
         if (std::find(c2.old_tets, c2.old_tets + c2.n_old, slots[i]) == c2.old_tets + c2.n_old)
           new_min = std::min(new_min, alpha_[slots[i]]);
-      if (new_min > old_min + o_.margin && new_min > best) {
+      // Guards: the first operation's new tets that the second leaves in
+      // place were not judged when it was planned (finish_plan skips the
+      // guard for it); the second's were.
+      auto guarded = [&] {
+        if (!o_.guard) return true;
+        for (int i = 0; i < c1.n_new; ++i)
+          if (std::find(c2.old_tets, c2.old_tets + c2.n_old, slots[i]) == c2.old_tets + c2.n_old) {
+            const int32_t* q = m_.tet(slots[i]);
+            if (!o_.guard->admits(m_.point(q[0]), m_.point(q[1]), m_.point(q[2]), m_.point(q[3]))) return false;
+          }
+        return true;
+      };
+      if (new_min > old_min + o_.margin && new_min > best && guarded()) {
         best = new_min;
         which = j;
       }
@@ -1884,6 +1908,14 @@ bool relocate_vertex(TetMesh& m, const TopoEditor& q, int32_t v) {
       return false;
     }
   }
+  if (const Guard* g = q.options().guard)
+    for (const int32_t* it = m.star_begin(v); it != m.star_end(v); ++it) {
+      const int32_t* tv = m.tet(*it);
+      if (!g->admits(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3]))) {
+        std::copy(old, old + 3, m.point(v));
+        return false;
+      }
+    }
   return true;
 }
 
@@ -1897,7 +1929,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   // trade some worst alpha for angles by giving a lower floor explicitly.
   if (!(d.alpha_floor > -1e300))
     d.alpha_floor =
-        detail::parallel_min(m.nt(), o.threads, [&](int64_t t) { return tet_alpha(m, static_cast<int32_t>(t)); });
+        detail::parallel_min(m.nt(), o.threads, [&](int64_t t) { return tet_objective(m, static_cast<int32_t>(t), o.objective); });
   TopoStats total;
   int64_t moves = 0;
   std::optional<TopoEditor> evaluator;

@@ -15,11 +15,15 @@
 // Every run ends with check_invariants (invariants.hpp); a failure returns
 // ErrorCode::Invariant and the caller must not write the mesh.
 #pragma once
+#include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <string>
 
+#include "tetopt/guard.hpp"
 #include "tetopt/mesh.hpp"
+#include "tetopt/objective.hpp"
 #include "tetopt/quality.hpp"
 #include "tetopt/status.hpp"
 
@@ -50,6 +54,19 @@ struct ImproveOptions {
   /// tet (ImproveReport::removed_vertices), so every id stays valid (tetopt-mpi
   /// merges parts by id and drops them once at the end).
   bool keep_vertex_ids = false;
+  /// What every stage optimises (objective.hpp): alpha (the paper's, the
+  /// default), sine, jacobian or skewness.  threshold and the internal
+  /// thresholds apply to this q (1 regular, 0 flat).
+  Objective objective = Objective::Alpha;
+  /// Guards (guard.hpp): no operation may create a tet worse than the
+  /// input's worst on any per-tet measure of measures.hpp; the run's report
+  /// says which measure refused how many operations.  false: --no-guard.
+  bool guard = true;
+  /// With guard: extremes no stricter than these (values of each per-tet
+  /// measure; NaN: none).  tetopt-mpi gives every part the whole mesh's
+  /// extremes, so that a part whose own worst tets are better is not held
+  /// to them.
+  std::array<double, kTetMeasureCount> guard_floor = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
 };
 
 /// What a run did.
@@ -71,6 +88,13 @@ struct ImproveReport {
   double seconds_check = 0;  ///< invariant snapshot + proof
   bool invariants_checked = false, invariants_ok = false;
   std::string invariant_message;
+  /// Guards: whether they were on, the extremes they held (the input's
+  /// worst per tet measure, after untangling) and the operations each
+  /// measure refused (index: Measure, per-tet measures only).
+  bool guard_on = false;
+  std::array<double, kTetMeasureCount> guard_extreme{};
+  std::array<int64_t, kTetMeasureCount> guard_refused{};
+  int guard_takes = 0;  ///< times the extremes were taken (the input, then each time one improved)
 };
 
 /// Improves m in place.  Requires build_topology(m); leaves it current.

@@ -26,7 +26,9 @@
 #include <cstdint>
 #include <vector>
 
+#include "tetopt/guard.hpp"
 #include "tetopt/mesh.hpp"
+#include "tetopt/objective.hpp"
 #include "tetopt/status.hpp"
 
 namespace tetopt {
@@ -45,6 +47,8 @@ struct InsertOptions {
   /// vertices stay in the array, unreferenced, listed in InsertStats.
   bool remove = false;
   bool insert = true;  ///< false: removal only
+  Objective objective = Objective::Alpha;  ///< the q that stands for alpha above (objective.hpp)
+  const Guard* guard = nullptr;            ///< guards (guard.hpp); nullptr: none
 };
 
 struct InsertStats {

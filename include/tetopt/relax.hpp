@@ -51,6 +51,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "tetopt/guard.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/status.hpp"
 
@@ -65,6 +66,7 @@ struct RelaxOptions {
   double flip_threshold = 1.1;  ///< flip_pass visits tets with alpha below this (> 1: all)
   double trigger_fraction = 0.25;  ///< relax_wanted: fraction of tets with alpha < 0.1
   double min_gain = 1e-3;       ///< stop when a round raises the mean alpha by less than this
+  const Guard* guard = nullptr;  ///< guards (guard.hpp) for the moves and flips; nullptr: none
 };
 
 struct RelaxStats {

@@ -95,7 +95,9 @@
 #include <cstdint>
 #include <vector>
 
+#include "tetopt/guard.hpp"
 #include "tetopt/mesh.hpp"
+#include "tetopt/objective.hpp"
 #include "tetopt/status.hpp"
 
 namespace tetopt {
@@ -137,6 +139,14 @@ struct SmoothOptions {
   /// 0 = std::thread::hardware_concurrency().  The result does not depend on
   /// it (byte-identical coordinates for every value).
   int threads = 1;
+  /// What q the objective's e = 1/q and the max-min's worst measure are
+  /// (objective.hpp); alpha by default, the paper's.  Other objectives take
+  /// their gradients by central differences.
+  Objective objective = Objective::Alpha;
+  /// Guards (guard.hpp): when set, a move is committed only if no tet of
+  /// the star at the new position is worse than the guard's extremes on a
+  /// guarded measure.  Not owned; nullptr: no guard.
+  const Guard* guard = nullptr;
 };
 
 /// Counters and measurements of one smooth_pass.

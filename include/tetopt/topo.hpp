@@ -63,7 +63,9 @@
 #include <limits>
 #include <vector>
 
+#include "tetopt/guard.hpp"
 #include "tetopt/mesh.hpp"
+#include "tetopt/objective.hpp"
 #include "tetopt/status.hpp"
 
 namespace tetopt {
@@ -95,6 +97,13 @@ enum class TopoMeasure {
 struct TopoOptions {
   /// Quality measure the operations and the threshold refer to.
   TopoMeasure measure = TopoMeasure::Alpha;
+  /// With TopoMeasure::Alpha: the per-tet quality q (objective.hpp) that
+  /// stands for alpha everywhere, alpha_floor included; alpha by default.
+  Objective objective = Objective::Alpha;
+  /// Guards (guard.hpp): when set, an operation or a relocation is
+  /// committed only if every tet it creates passes Guard::admits.  Not
+  /// owned; nullptr: no guard.
+  const Guard* guard = nullptr;
   /// A new tet with alpha below this counts as unacceptable (-inf) whatever
   /// the measure: set it to the mesh's worst alpha to make a dihedral pass
   /// that never lowers the worst alpha.

@@ -1,0 +1,86 @@
+// tetopt/guard.hpp — never worsen the measures one does not optimise
+// (issue 26, item 3).
+//
+// A Guard holds, for every per-tet measure of the table (measures.hpp:
+// alpha, minimum sine, smallest and largest dihedral angle, scaled
+// Jacobian, radius ratio, mean ratio, equivolume skewness), the worst value
+// over the mesh it was taken from.  An operation (a smoothing move, a flip,
+// an edge removal, an insertion or removal, a dihedral-pass relocation) is
+// committed only when every tet it creates is at least as good as those
+// extremes on every measure: the mesh's worst value of each measure can
+// then only stay or improve, whatever the objective.  The engine takes the
+// extremes of the input once (improve()); the input's own tets all satisfy
+// them, bit for bit (a tet rebuilt unchanged gives the same values).
+//
+// Cost: a tet is measured in order of cost and given up at its first
+// failure; the dihedral angles (atan2) are computed only when the minimum
+// sine cannot decide them (every dihedral angle θ has sin θ >= sine_min, the
+// smallest angle is at most 70.53° and the largest at least that).  Only
+// new tets of committed candidates are measured, never the line searches.
+//
+// Face measures (OpenFOAM non-orthogonality, face skewness) depend on two
+// tets' centroids; they are reported and compared before/after, not
+// guarded per operation.
+#pragma once
+#include <array>
+#include <atomic>
+#include <cstdint>
+
+#include "tetopt/measures.hpp"
+
+namespace tetopt {
+
+struct TetMesh;
+
+class Guard {
+ public:
+  /// Sets g's extremes to those of m's tets now (tets with a non-positive
+  /// volume skipped: untangling owns those).  The refusal counts are kept:
+  /// the driver takes the extremes again as the run improves them, so an
+  /// operation may not push an extreme past the current one.
+  static void take(const TetMesh& m, int threads, Guard& g);
+
+  /// Whether tet (a, b, c, d) is no worse than every extreme; when not, the
+  /// refusal is counted against the first measure it fails.
+  bool admits(const double* a, const double* b, const double* c, const double* d) const;
+
+  /// Lowers each extreme to floor[k] (a value of measure k) where that is
+  /// worse: tetopt-mpi's parts are guarded by the whole mesh's extremes,
+  /// not by their own better ones.  Kept through later take()s.
+  void set_floor(const std::array<double, kTetMeasureCount>& floor);
+
+  /// Leaves measure k to the engine's own rules: the objective's worst is
+  /// what every stage raises, by rules that may lower it for a step (the
+  /// paper's may-worsen policy for all-boundary tets, the pair search's
+  /// first operation) and never end lower.
+  void exempt(Measure k) { exempt_[static_cast<size_t>(k)] = true; }
+
+  /// Whether a tet that held an extreme when they were taken has changed
+  /// since (its slot holds other vertices, or one of them moved): only then
+  /// can an extreme have improved, since every tet created meanwhile was
+  /// admitted.  The driver takes the extremes again only when stale.
+  bool stale(const TetMesh& m) const;
+
+  bool on() const { return on_; }
+  double extreme(Measure k) const { return worst_[static_cast<size_t>(k)]; }
+  int64_t refused(Measure k) const { return refused_[static_cast<size_t>(k)].load(std::memory_order_relaxed); }
+  int64_t refused_total() const;
+
+ private:
+  bool on_ = false;
+  std::array<double, kTetMeasureCount> worst_{};
+  std::array<bool, kTetMeasureCount> exempt_{};
+  struct Holder {  // the first tet holding an extreme, as it was
+    int32_t tet = -1;
+    int32_t v[4] = {-1, -1, -1, -1};
+    double x[12] = {};
+  };
+  std::array<Holder, kTetMeasureCount> holder_{};
+  double sine_enough_ = 2;  // sine_min at or above this proves both dihedral extremes
+  bool has_floor_ = false;
+  std::array<double, kTetMeasureCount> floor_{};
+  void apply_floor_and_sine();
+  mutable std::array<std::atomic<int64_t>, kTetMeasureCount> refused_{};
+};
+
+}  // namespace tetopt

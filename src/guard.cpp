@@ -1,0 +1,188 @@
+// Guards: see guard.hpp.
+#include "tetopt/guard.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "detail/parallel.hpp"
+#include "tetopt/mesh.hpp"
+#include "tetopt/quality.hpp"
+
+namespace tetopt {
+
+namespace {
+constexpr size_t idx(Measure k) { return static_cast<size_t>(k); }
+}  // namespace
+
+namespace {
+using Oriented = std::array<double, kTetMeasureCount>;
+// A block's minima and the first tet holding each.
+struct Part {
+  Oriented v;
+  std::array<int32_t, kTetMeasureCount> id;
+};
+constexpr double kRad = std::numbers::pi / 180.0;
+}  // namespace
+
+void Guard::take(const TetMesh& m, int threads, Guard& g) {
+  const int32_t nt = m.nt();
+  // Per-measure extremes as the min of oriented values over the tets, one
+  // pass over the mesh (fixed blocks merged in order: exact, the same for
+  // every thread count).  The values are those admits() compares, from the
+  // same functions, so a tet rebuilt unchanged is admitted.
+  Part init;
+  init.v.fill(std::numeric_limits<double>::infinity());
+  init.id.fill(-1);
+  const Part best = detail::parallel_reduce_blocks(
+      nt, threads, init,
+      [&](int64_t b, int64_t e) {
+        Part part = init;
+        Oriented& lo = part.v;
+        // The dihedral angles (atan2) only where the minimum sine cannot
+        // prove the tet holds neither extreme: sin θ >= sine_min for each of
+        // its angles, the smallest is at most 70.53° and the largest at least
+        // that, so sine_min >= sin(lo) * (1 + 1e-9) and >= sin(180° - hi) *
+        // (1 + 1e-9) leave lo and hi as they are (the margin covers rounding).
+        double skip_lo = 2, skip_hi = 2;  // sine_min at or above both: skip
+        for (int64_t i = b; i < e; ++i) {
+          const int32_t* v = m.tet(static_cast<int32_t>(i));
+          const double *a = m.point(v[0]), *p1 = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
+          if (!(tet_signed_volume(a, p1, c, d) > 0)) continue;  // untangling's, not the guard's
+          auto keep = [&](Measure k, double x) {
+            double& y = lo[idx(k)];
+            if (x < y) {
+              y = x;
+              part.id[idx(k)] = static_cast<int32_t>(i);
+            }
+          };
+          keep(Measure::Alpha, alpha(a, p1, c, d));
+          const double sm = sine_min(a, p1, c, d);
+          keep(Measure::SineMin, sm);
+          if (!(sm >= skip_lo && sm >= skip_hi)) {
+            double dlo, dhi;
+            dihedral_extremes(a, p1, c, d, dlo, dhi);
+            if (dlo < lo[idx(Measure::DihedralMin)]) {
+              keep(Measure::DihedralMin, dlo);
+              skip_lo = std::sin(dlo * kRad) * (1 + 1e-9) + 1e-300;
+            }
+            if (-dhi < lo[idx(Measure::DihedralMax)]) {
+              keep(Measure::DihedralMax, -dhi);
+              skip_hi = dhi >= 90 ? std::sin((180.0 - dhi) * kRad) * (1 + 1e-9) + 1e-300 : 2;
+            }
+          }
+          keep(Measure::ScaledJacobian, scaled_jacobian(a, p1, c, d));
+          keep(Measure::RadiusRatio, radius_ratio(a, p1, c, d));
+          keep(Measure::MeanRatio, mean_ratio(a, p1, c, d));
+          keep(Measure::EquivolumeSkewness, -equivolume_skewness(a, p1, c, d));
+        }
+        return part;
+      },
+      [](const Part& x, const Part& y) {  // blocks in order: the first tet on ties
+        Part r = x;
+        for (size_t k = 0; k < r.v.size(); ++k)
+          if (y.v[k] < r.v[k]) {
+            r.v[k] = y.v[k];
+            r.id[k] = y.id[k];
+          }
+        return r;
+      });
+  const Oriented& best_bad = best.v;
+  for (size_t k = 0; k < best.id.size(); ++k) {
+    Holder& h = g.holder_[k];
+    h.tet = best.id[k];
+    if (h.tet < 0) continue;
+    const int32_t* v = m.tet(h.tet);
+    for (int j = 0; j < 4; ++j) {
+      h.v[j] = v[j];
+      for (int c = 0; c < 3; ++c) h.x[3 * j + c] = m.point(v[j])[c];
+    }
+  }
+  g.on_ = true;
+  for (int k = 0; k < kTetMeasureCount; ++k) {
+    const Measure mk = static_cast<Measure>(k);
+    const double o = best_bad[static_cast<size_t>(k)];
+    g.worst_[static_cast<size_t>(k)] = std::isinf(o) ? (measure_info(mk).better == Better::Higher ? -INFINITY : INFINITY)
+                                                     : oriented(mk, o);
+  }
+  g.apply_floor_and_sine();
+}
+
+void Guard::set_floor(const std::array<double, kTetMeasureCount>& floor) {
+  has_floor_ = true;
+  floor_ = floor;
+  apply_floor_and_sine();
+}
+
+void Guard::apply_floor_and_sine() {
+  if (has_floor_)
+    for (int k = 0; k < kTetMeasureCount; ++k) {
+      const Measure mk = static_cast<Measure>(k);
+      const double f = floor_[static_cast<size_t>(k)];
+      if (!std::isnan(f) && worse(mk, f, worst_[static_cast<size_t>(k)])) worst_[static_cast<size_t>(k)] = f;
+    }
+  // sin θ >= sine_min for every dihedral angle θ; the smallest angle lies in
+  // (0, 70.53°] where sin rises, and the largest in [70.53°, 180°) where
+  // sin(180° - θ) does: sine_min >= sin(lo) proves θ_min >= lo, sine_min >=
+  // sin(180° - hi) proves θ_max <= hi (when hi >= 90°).  A relative margin of
+  // 1e-9 covers the rounding of the two computations.
+  const double lo = worst_[idx(Measure::DihedralMin)], hi = worst_[idx(Measure::DihedralMax)];
+  if (lo > 0 && hi >= 90 && hi < 180)
+    sine_enough_ = std::max(std::sin(lo * kRad), std::sin((180.0 - hi) * kRad)) * (1 + 1e-9) + 1e-12;
+  else
+    sine_enough_ = 2;  // never: always measure the angles
+}
+
+bool Guard::admits(const double* a, const double* b, const double* c, const double* d) const {
+  if (!on_) return true;
+  auto refuse = [&](Measure k) {
+    if (exempt_[idx(k)]) return true;
+    refused_[idx(k)].fetch_add(1, std::memory_order_relaxed);
+    return false;
+  };
+  // Cheapest first; each comparison is "not worse than the extreme" (NaN
+  // fails).
+  const double al = alpha(a, b, c, d);
+  if (!(al >= worst_[idx(Measure::Alpha)]) && !refuse(Measure::Alpha)) return false;
+  const double mr = mean_ratio(a, b, c, d);
+  if (!(mr >= worst_[idx(Measure::MeanRatio)]) && !refuse(Measure::MeanRatio)) return false;
+  const double sj = scaled_jacobian(a, b, c, d);
+  if (!(sj >= worst_[idx(Measure::ScaledJacobian)]) && !refuse(Measure::ScaledJacobian)) return false;
+  const double sm = sine_min(a, b, c, d);
+  if (!(sm >= worst_[idx(Measure::SineMin)]) && !refuse(Measure::SineMin)) return false;
+  const double rr = radius_ratio(a, b, c, d);
+  if (!(rr >= worst_[idx(Measure::RadiusRatio)]) && !refuse(Measure::RadiusRatio)) return false;
+  const double sk = equivolume_skewness(a, b, c, d);
+  if (!(sk <= worst_[idx(Measure::EquivolumeSkewness)]) && !refuse(Measure::EquivolumeSkewness)) return false;
+  if (!(sm >= sine_enough_)) {
+    double lo_deg, hi_deg;
+    dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
+    if (!(lo_deg >= worst_[idx(Measure::DihedralMin)]) && !refuse(Measure::DihedralMin)) return false;
+    if (!(hi_deg <= worst_[idx(Measure::DihedralMax)]) && !refuse(Measure::DihedralMax)) return false;
+  }
+  return true;
+}
+
+bool Guard::stale(const TetMesh& m) const {
+  if (!on_) return false;
+  for (const Holder& h : holder_) {
+    if (h.tet < 0) continue;
+    if (h.tet >= m.nt()) return true;
+    const int32_t* v = m.tet(h.tet);
+    for (int j = 0; j < 4; ++j) {
+      if (v[j] != h.v[j]) return true;
+      for (int c = 0; c < 3; ++c)
+        if (m.point(v[j])[c] != h.x[3 * j + c]) return true;
+    }
+  }
+  return false;
+}
+
+int64_t Guard::refused_total() const {
+  int64_t n = 0;
+  for (const auto& r : refused_) n += r.load(std::memory_order_relaxed);
+  return n;
+}
+
+}  // namespace tetopt

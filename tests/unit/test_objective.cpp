@@ -1,0 +1,235 @@
+// --objective and the guards (issue 26 items 2-3): objective.hpp, guard.hpp
+// and improve() with them.  Every run here also proves the boundary promise
+// (improve's check_invariants: constrained vertices bit-identical,
+// constrained faces kept, no inverted tet, region volumes kept).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "tetopt/generate.hpp"
+#include "tetopt/guard.hpp"
+#include "tetopt/improve.hpp"
+#include "tetopt/invariants.hpp"
+#include "tetopt/measures.hpp"
+#include "tetopt/mesh.hpp"
+#include "tetopt/objective.hpp"
+#include "tetopt/predicates.hpp"
+#include "tetopt/quality.hpp"
+
+using namespace tetopt;
+
+namespace {
+const double kReg[4][3] = {{1, 1, 1}, {-1, 1, -1}, {1, -1, -1}, {-1, -1, 1}};  // regular, positive
+
+// A jittered two-region box with its topology (a mesh made here).
+TetMesh box(int n, double jitter, uint64_t seed) {
+  TetMesh m = make_box_mesh({.nx = n, .ny = n, .nz = n, .jitter = jitter, .seed = seed, .regions = 2});
+  EXPECT_TRUE(build_topology(m));
+  return m;
+}
+
+// A jittered box whose bottom face has needle triangles (every third vertex
+// inside it moved almost onto its neighbour in +x), as test_topo's
+// needle_box: a thin wall meshed coarsely, where the unguarded run trades
+// other measures for alpha.  Topology built.
+TetMesh needle_box(int nx, int nz, uint64_t seed) {
+  TetMesh m = make_box_mesh({.nx = nx, .ny = nx, .nz = nz, .jitter = 0.3, .seed = seed});
+  for (int32_t v = 0; v < m.nv(); ++v) {
+    double* p = m.point(v);
+    if (p[2] != 0.0 || p[0] <= 0.5 || p[0] >= nx - 0.5 || p[1] <= 0.5 || p[1] >= nx - 0.5) continue;
+    const long i = std::lround(p[0]), j = std::lround(p[1]);
+    if ((i + j) % 3 != 0) continue;
+    const double old_x = p[0];
+    p[0] = static_cast<double>(i) + 0.999;
+    bool ok = true;
+    for (int32_t t = 0; t < m.nt() && ok; ++t) {
+      const int32_t* q = m.tet(t);
+      if (q[0] == v || q[1] == v || q[2] == v || q[3] == v)
+        ok = orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) == Sign::Positive;
+    }
+    if (!ok) p[0] = old_x;
+  }
+  EXPECT_TRUE(build_topology(m));
+  return m;
+}
+
+// The worst value of every per-tet measure, oriented so higher is better.
+std::vector<double> worst_oriented(const TetMesh& m) {
+  const QualityStats s = compute_stats(m, 1, true);
+  std::vector<double> w;
+  for (int k = 0; k < kTetMeasureCount; ++k)
+    w.push_back(oriented(static_cast<Measure>(k), s.measures.m[static_cast<size_t>(k)].worst));
+  return w;
+}
+}  // namespace
+
+TEST(Objective, RegularTetScoresOneFlatZeroInvertedNegative) {
+  for (Objective o : {Objective::Alpha, Objective::Sine, Objective::Jacobian, Objective::Skewness}) {
+    SCOPED_TRACE(objective_name(o));
+    EXPECT_NEAR(objective_quality(o, kReg[0], kReg[1], kReg[2], kReg[3]), 1.0, 1e-12);
+    // d moved onto the plane of a, b, c: flat, q = 0 (up to rounding).
+    const double flat[3] = {(kReg[0][0] + kReg[1][0] + kReg[2][0]) / 3, (kReg[0][1] + kReg[1][1] + kReg[2][1]) / 3,
+                            (kReg[0][2] + kReg[1][2] + kReg[2][2]) / 3};
+    EXPECT_NEAR(objective_quality(o, kReg[0], kReg[1], kReg[2], flat), 0.0, 1e-12);
+    // Half way there: between the two.
+    const double half[3] = {(flat[0] + kReg[3][0]) / 2, (flat[1] + kReg[3][1]) / 2, (flat[2] + kReg[3][2]) / 2};
+    const double qh = objective_quality(o, kReg[0], kReg[1], kReg[2], half);
+    EXPECT_GT(qh, 0.0);
+    EXPECT_LT(qh, 1.0);
+    // Swapping two vertices inverts the tet: q <= 0.
+    EXPECT_LE(objective_quality(o, kReg[1], kReg[0], kReg[2], kReg[3]), 0.0);
+    Objective back;
+    ASSERT_TRUE(parse_objective(objective_name(o), back));
+    EXPECT_EQ(back, o);
+  }
+  Objective x;
+  EXPECT_FALSE(parse_objective("openfoam", x));
+  // The scaling the engine relies on: sine divided by its regular value.
+  EXPECT_NEAR(objective_quality(Objective::Sine, kReg[0], kReg[1], kReg[2], kReg[3]) * kRegularSine,
+              sine_min(kReg[0], kReg[1], kReg[2], kReg[3]), 1e-15);
+}
+
+TEST(Guard, AdmitsTheMeshOwnTetsAndRefusesAWorseOne) {
+  TetMesh m = box(4, 0.3, 3);
+  Guard g;
+  Guard::take(m, 1, g);
+  ASSERT_TRUE(g.on());
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    ASSERT_TRUE(g.admits(m.point(v[0]), m.point(v[1]), m.point(v[2]), m.point(v[3]))) << "tet " << t;
+  }
+  EXPECT_EQ(g.refused_total(), 0);
+  // The extremes are the mesh's worst values.
+  const QualityStats s = compute_stats(m, 1, true);
+  for (int k = 0; k < kTetMeasureCount; ++k)
+    EXPECT_EQ(g.extreme(static_cast<Measure>(k)), s.measures.m[static_cast<size_t>(k)].worst) << kMeasures[k].key;
+  // A sliver is worse than a jittered box on every measure: refused, and
+  // counted against the first measure it fails (alpha).
+  const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, c[3] = {0, 1, 0}, d[3] = {0.3, 0.3, 0.01};
+  EXPECT_FALSE(g.admits(a, b, c, d));
+  EXPECT_EQ(g.refused(Measure::Alpha), 1);
+  // Exempt alpha (the objective's own rules): the next measure refuses it.
+  g.exempt(Measure::Alpha);
+  EXPECT_FALSE(g.admits(a, b, c, d));
+  EXPECT_EQ(g.refused(Measure::Alpha), 1);
+  EXPECT_EQ(g.refused_total(), 2);
+}
+
+TEST(Guard, StaleOnlyWhenATetHoldingAnExtremeChanged) {
+  TetMesh m = box(4, 0.3, 5);
+  Guard g;
+  Guard::take(m, 1, g);
+  EXPECT_FALSE(g.stale(m));
+  // Move a free vertex of the worst-alpha tet a little: stale.
+  const QualityStats s = compute_stats(m, 1);
+  const int32_t* v = m.tet(s.worst_tet);
+  int32_t free_v = -1;
+  for (int k = 0; k < 4; ++k)
+    if (!m.vert_constrained[v[k]]) free_v = v[k];
+  ASSERT_GE(free_v, 0);
+  const double keep = m.point(free_v)[0];
+  m.point(free_v)[0] = keep + 1e-9;
+  EXPECT_TRUE(g.stale(m));
+  m.point(free_v)[0] = keep;
+  EXPECT_FALSE(g.stale(m));
+}
+
+// The promise of item 3: with the guards on (the default), a run ends no
+// worse than its input on the worst of any per-tet measure, for every
+// objective, and the boundary is kept (check_invariants inside improve).
+TEST(Objective, GuardedRunsEndNoWorseOnAnyMeasure) {
+  for (Objective o : {Objective::Alpha, Objective::Sine, Objective::Jacobian, Objective::Skewness}) {
+    SCOPED_TRACE(objective_name(o));
+    TetMesh m = box(5, 0.42, 11);
+    const std::vector<double> before = worst_oriented(m);
+    const double mean_before = compute_stats(m, 1).alpha_mean;
+    ImproveOptions opt;
+    opt.objective = o;
+    opt.iterations = 4;
+    ImproveReport rep;
+    const Status st = improve(m, opt, rep);
+    ASSERT_TRUE(st) << st.message;
+    EXPECT_TRUE(rep.invariants_ok) << rep.invariant_message;
+    EXPECT_TRUE(rep.guard_on);
+    const std::vector<double> after = worst_oriented(m);
+    for (int k = 0; k < kTetMeasureCount; ++k)
+      EXPECT_GE(after[static_cast<size_t>(k)], before[static_cast<size_t>(k)]) << kMeasures[k].key;
+    // The objective's own worst rose.
+    const Measure om = objective_measure(o);
+    EXPECT_GT(after[static_cast<size_t>(om)], before[static_cast<size_t>(om)]) << kMeasures[static_cast<int>(om)].key;
+    EXPECT_GE(rep.after.alpha_mean, mean_before);
+  }
+}
+
+// Where the unguarded run ends worse than its input on some measure (the
+// needle box), the guarded one does not.
+TEST(Objective, GuardsKeepWhatTheUnguardedRunLoses) {
+  const TetMesh m0 = needle_box(8, 4, 1);
+  const std::vector<double> before = worst_oriented(m0);
+  int worse_unguarded = 0;
+  for (bool guard : {false, true}) {
+    SCOPED_TRACE(guard ? "guarded" : "unguarded");
+    TetMesh m = m0;
+    ImproveOptions opt;
+    opt.guard = guard;
+    ImproveReport rep;
+    ASSERT_TRUE(improve(m, opt, rep));
+    EXPECT_TRUE(rep.invariants_ok) << rep.invariant_message;
+    const std::vector<double> after = worst_oriented(m);
+    for (int k = 0; k < kTetMeasureCount; ++k) {
+      const bool worse = after[static_cast<size_t>(k)] < before[static_cast<size_t>(k)];
+      if (!guard) worse_unguarded += worse;
+      if (!guard && worse) {
+        std::printf("unguarded worsens %s: %.6g -> %.6g\n", kMeasures[k].key, before[static_cast<size_t>(k)],
+                    after[static_cast<size_t>(k)]);
+      }
+      if (guard) {
+        EXPECT_FALSE(worse) << kMeasures[k].key;
+      }
+    }
+    if (guard) {
+      int64_t refused = 0;
+      for (int64_t n : rep.guard_refused) refused += n;
+      EXPECT_GT(refused, 0);
+    }
+  }
+  EXPECT_GT(worse_unguarded, 0) << "the mesh no longer shows what the guards are for";
+}
+
+// Each objective raises its own measure's worst more than the default
+// (alpha) run does on the same mesh, or as much: what --objective is for.
+TEST(Objective, EachObjectiveLeadsOnItsOwnMeasure) {
+  TetMesh base = box(5, 0.42, 13);
+  ImproveOptions opt;
+  opt.iterations = 4;
+  TetMesh ma = base;
+  ImproveReport ra;
+  ASSERT_TRUE(improve(ma, opt, ra));
+  const std::vector<double> wa = worst_oriented(ma);
+  for (Objective o : {Objective::Sine, Objective::Jacobian}) {
+    SCOPED_TRACE(objective_name(o));
+    TetMesh m = base;
+    ImproveOptions oo = opt;
+    oo.objective = o;
+    ImproveReport r;
+    ASSERT_TRUE(improve(m, oo, r));
+    const size_t k = static_cast<size_t>(objective_measure(o));
+    EXPECT_GE(worst_oriented(m)[k], wa[k]);
+  }
+}
+
+// --no-guard (guard = false): no guards taken, none reported.
+TEST(Objective, NoGuardTakesNoExtremes) {
+  TetMesh m = box(4, 0.3, 17);
+  ImproveOptions opt;
+  opt.guard = false;
+  opt.iterations = 2;
+  ImproveReport rep;
+  ASSERT_TRUE(improve(m, opt, rep));
+  EXPECT_FALSE(rep.guard_on);
+  EXPECT_EQ(rep.guard_takes, 0);
+  const std::string js = report_to_json(rep, opt, "in", "out");
+  EXPECT_NE(js.find("\"guards\": {\"on\": false}"), std::string::npos) << js;
+  EXPECT_NE(js.find("\"guard\": false"), std::string::npos);
+}
