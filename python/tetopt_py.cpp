@@ -418,6 +418,8 @@ struct PyImproveOptions {
   bool check = true;
   bool diagnose = false;
   bool allow_insert = false, allow_remove = false;
+  std::string objective = "alpha";
+  bool guard = true;
 };
 
 /// The diagnosis of m as JSON (the CLI's "diagnosis" object, `max_list`
@@ -465,6 +467,9 @@ tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
   o.check_invariants = p.check;
   o.allow_insert = p.allow_insert;
   o.allow_remove = p.allow_remove;
+  if (!tetopt::parse_objective(p.objective.c_str(), o.objective))
+    throw py::value_error("objective: expected 'alpha', 'sine', 'jacobian' or 'skewness', got '" + p.objective + "'");
+  o.guard = p.guard;
   return o;
 }
 
@@ -661,7 +666,9 @@ PYBIND11_MODULE(_tetopt, mod) {
       .def_readwrite("check", &PyImproveOptions::check)
       .def_readwrite("diagnose", &PyImproveOptions::diagnose)
       .def_readwrite("allow_insert", &PyImproveOptions::allow_insert)
-      .def_readwrite("allow_remove", &PyImproveOptions::allow_remove);
+      .def_readwrite("allow_remove", &PyImproveOptions::allow_remove)
+      .def_readwrite("objective", &PyImproveOptions::objective)
+      .def_readwrite("guard", &PyImproveOptions::guard);
   mod.attr("HAVE_DIAGNOSE") = py::bool_(TETOPT_PY_HAVE_DIAGNOSE != 0);
 
   mod.def("improve_arrays", &improve_arrays, py::arg("points"), py::arg("tets"), py::arg("refs"),

@@ -144,6 +144,12 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "--keep-order") a.keep_order = true;
     else if (o == "--allow-insert") a.opt.allow_insert = true;
     else if (o == "--allow-remove") a.opt.allow_remove = true;
+    else if (o == "--no-guard") a.opt.guard = false;
+    else if (o == "--objective") {
+      if (!value()) return R::Error;
+      if (!parse_objective(v.c_str(), a.opt.objective))
+        return bad("--objective is alpha, sine, jacobian or skewness, not '" + v + "'");
+    }
     else if (o == "--mode") {
       if (!value()) return R::Error;
       if (v == "smooth") a.opt.mode = ImproveMode::Smooth;

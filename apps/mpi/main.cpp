@@ -87,6 +87,9 @@ const char* kHelp =
     "  --threads T          worker threads per rank (default 1)\n"
     "  --allow-insert       (mode best only) may insert free vertices\n"
     "  --allow-remove       (mode best only) may remove free vertices (dropped after the merge)\n"
+    "  --objective M        alpha (default), sine, jacobian or skewness: what every stage\n"
+    "                       optimises (tetopt improve --help)\n"
+    "  --no-guard           let operations worsen the part's worst on the other measures\n"
     "  --report FILE.json   per-round phase times, bytes, quality; before/after stats\n"
     "  --msh-version V      22 or 41    --binary  binary .msh/.vtk\n"
     "  --meshb-version V    2, 3 (default) or 4 for .meshb output\n"
@@ -187,8 +190,11 @@ bool send_bytes(const std::string& b, int dst, int tag, double* seconds) {
   return true;
 }
 
-// A part message as sent: the round's threshold, then the part.
-std::string frame(double gamma, std::string msg) {
+// A part message as sent: the round's threshold, the whole mesh's guard
+// extremes (guard.hpp; NaN when guards are off), then the part.
+using Floor = std::array<double, tetopt::kTetMeasureCount>;
+std::string frame(double gamma, const Floor& floor, std::string msg) {
+  msg.insert(0, reinterpret_cast<const char*>(floor.data()), sizeof(double) * floor.size());
   msg.insert(0, reinterpret_cast<const char*>(&gamma), sizeof gamma);
   return msg;
 }
@@ -199,10 +205,14 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
   const double t0 = now();
   ImproveReport rep;
   double gamma = 0;
-  if (framed.size() < sizeof gamma) {
+  Floor floor;
+  const size_t head = sizeof gamma + sizeof(double) * floor.size();
+  if (framed.size() < head) {
     st = Status::error(ErrorCode::InvalidMesh, "truncated part message");
   } else {
     std::memcpy(&gamma, framed.data(), sizeof gamma);
+    std::memcpy(floor.data(), framed.data() + sizeof gamma, sizeof(double) * floor.size());
+    opt.guard_floor = floor;
     // Insertion (when allowed) in every round: improve() aims it at the tets
     // within 0.05 of the part's worst alpha, so it stays cheap at the raised
     // thresholds of later rounds.
@@ -210,7 +220,7 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
     // Removed vertices must keep their ids until rank 0 merges the parts;
     // rank 0 drops them once, after the final proof.
     opt.keep_vertex_ids = true;
-    st = decode_part(framed.substr(sizeof gamma), part);
+    st = decode_part(framed.substr(head), part);
   }
   if (st && part.nt() > 0) st = improve(part, opt, rep);  // an empty part has nothing to do
   // improve() is called once.  (It used to be called up to twice more in a
@@ -567,8 +577,18 @@ int leader(const Args& a, int size) {
       L.interface_vertices_per_rank.push_back(p < nparts ? plans[p].interface_vertices : 0);
     }
     // ---- scatter
+    // Guards: every part is held to the whole mesh's extremes as they are
+    // now (one measure pass on rank 0), not to its own better ones.
+    Floor floor;
+    floor.fill(NAN);
+    if (a.opt.guard) {
+      tetopt::Guard whole;
+      tetopt::Guard::take(g, kRank0Threads, whole);
+      for (int k = 0; k < tetopt::kTetMeasureCount; ++k)
+        floor[static_cast<size_t>(k)] = whole.extreme(static_cast<tetopt::Measure>(k));
+    }
     for (int p = 0; p < nparts; ++p)
-      msgs[p] = frame(gamma, std::move(msgs[p]));
+      msgs[p] = frame(gamma, floor, std::move(msgs[p]));
     bool sent = true;
     for (int p = 1; p < nparts && sent; ++p) {
       L.bytes_scatter += static_cast<int64_t>(msgs[p].size());

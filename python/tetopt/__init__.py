@@ -144,7 +144,7 @@ class Mesh:
 
 def _options(mode: str, optimizer: str, weight: float, threshold: float, iterations: int, seed: int,
              threads: int, check: bool, diagnose: bool, allow_insert: bool = False,
-             allow_remove: bool = False) -> Any:
+             allow_remove: bool = False, objective: str = "alpha", guard: bool = True) -> Any:
     o = _tetopt.ImproveOptions()
     for name, value, kind in (("mode", mode, str), ("optimizer", optimizer, str)):
         if not isinstance(value, kind):
@@ -168,6 +168,12 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
         setattr(o, name, bool(value))
         if value and mode != "best":
             raise ValueError(f"{name} works in mode 'best' only (the default), not in mode {mode!r}")
+    if not isinstance(objective, str):
+        raise ValueError(f"objective: expected a str, got {objective!r}")
+    o.objective = objective
+    if not isinstance(guard, (bool, np.bool_)):
+        raise ValueError(f"guard: expected a bool, got {guard!r}")
+    o.guard = bool(guard)
     return o
 
 
@@ -202,6 +208,8 @@ def improve(
     log: Optional[LogCallback] = None,
     allow_insert: bool = False,
     allow_remove: bool = False,
+    objective: str = "alpha",
+    guard: bool = True,
 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
     """Improves a tetrahedral mesh; returns ``(points, tets, refs, report)``.
 
@@ -253,6 +261,15 @@ def improve(
             remaining vertices keep their order, so ids after a removed one
             shift down.  ``report["operations"]`` counts ``insertions`` and
             ``vertex_removals``.
+        objective: what every stage optimises: 'alpha' (default, the
+            paper's), 'sine' (Stellar's minimum sine of the dihedral angles),
+            'jacobian' (Verdict's scaled Jacobian) or 'skewness' (1 - Fluent's
+            equivolume skewness); ``threshold`` applies to it.
+        guard: no operation may create a tet worse than the current worst of
+            the mesh on any per-tet measure (alpha, minimum sine, dihedral
+            angles, scaled Jacobian, radius ratio, mean ratio, skewness);
+            ``report["guards"]`` counts what each refused.  False lifts it
+            (``tetopt improve --no-guard``).
 
     Returns:
         points: (n, 3) float64, the same vertices (constrained ones bit-identical;
@@ -278,7 +295,7 @@ def improve(
     copy.
     """
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove)
+                 allow_insert, allow_remove, objective, guard)
     p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log)
     return p, t, r, _with_diagnosis(js, dj)
 
@@ -298,6 +315,8 @@ def improve_mesh(
     log: Optional[LogCallback] = None,
     allow_insert: bool = False,
     allow_remove: bool = False,
+    objective: str = "alpha",
+    guard: bool = True,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole :class:`Mesh` (as :func:`read` returns it); returns ``(mesh, report)``.
 
@@ -308,7 +327,7 @@ def improve_mesh(
     mesh is not modified.
     """
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove)
+                 allow_insert, allow_remove, objective, guard)
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
     d, js, dj = _tetopt.improve_mesh(mesh._as_dict(), o, log)

@@ -81,6 +81,8 @@ def improve(
     log: Optional[LogCallback] = None,
     allow_insert: bool = False,
     allow_remove: bool = False,
+    objective: str = "alpha",
+    guard: bool = True,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.int32], Dict[str, Any]]:
     """Improves a tetrahedral mesh without touching its constrained vertices and faces.
 
@@ -104,6 +106,8 @@ def improve_mesh(
     log: Optional[LogCallback] = None,
     allow_insert: bool = False,
     allow_remove: bool = False,
+    objective: str = "alpha",
+    guard: bool = True,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole Mesh as `tetopt improve` does (listed entities constrained, everything kept)."""
 
