@@ -81,18 +81,23 @@ Format format_from_path(const std::string& path) {
   return Format::Unknown;
 }
 
+namespace {
+// A file name as messages show it (control characters escaped: one line).
+std::string shown(const std::string& path) { return detail::escaped_name(path); }
+}  // namespace
+
 Status read_file_bytes(const std::string& path, std::string& out) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return Status::error(ErrorCode::Io, path + ": no such file");
-  if (!S_ISREG(st.st_mode)) return Status::error(ErrorCode::Io, path + ": not a regular file");
+  if (::stat(path.c_str(), &st) != 0) return Status::error(ErrorCode::Io, shown(path) + ": no such file");
+  if (!S_ISREG(st.st_mode)) return Status::error(ErrorCode::Io, shown(path) + ": not a regular file");
   std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::error(ErrorCode::Io, path + ": cannot open for reading");
+  if (!in) return Status::error(ErrorCode::Io, shown(path) + ": cannot open for reading");
   in.seekg(0, std::ios::end);
   const std::streamoff n = in.tellg();
-  if (n < 0) return Status::error(ErrorCode::Io, path + ": cannot determine the file size");
+  if (n < 0) return Status::error(ErrorCode::Io, shown(path) + ": cannot determine the file size");
   in.seekg(0, std::ios::beg);
   out.resize(static_cast<size_t>(n));
-  if (n > 0 && !in.read(out.data(), n)) return Status::error(ErrorCode::Io, path + ": read failed");
+  if (n > 0 && !in.read(out.data(), n)) return Status::error(ErrorCode::Io, shown(path) + ": read failed");
   return Status::success();
 }
 
@@ -134,8 +139,6 @@ class ListedTemp {
   PendingTemp* slot_ = nullptr;
 };
 
-// A file name as messages show it (control characters escaped: one line).
-std::string shown(const std::string& path) { return detail::escaped_name(path); }
 // The system's reason for an errno value ("File too large").
 std::string reason(int err) { return std::strerror(err); }
 
@@ -475,7 +478,7 @@ Status out_of_memory_guard(const std::string& path, const char* doing, F&& f) {
   } catch (const std::bad_alloc&) {
   } catch (const std::length_error&) {
   }
-  return Status::error(ErrorCode::OutOfMemory, path + ": out of memory " + doing);
+  return Status::error(ErrorCode::OutOfMemory, shown(path) + ": out of memory " + doing);
 }
 Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationReport* orient, int threads);
 Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const WriteOptions& opt);
@@ -497,12 +500,15 @@ namespace {
 Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   m = TetMesh{};
   const Format f = format_from_path(path);
+  // The name every message gives: control characters escaped, so that a
+  // message stays one line for the library's callers too (Python).
+  const std::string name = shown(path);
   std::string data;
   Status s;
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           path + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+                           name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
     case Format::TetGen: {
       const std::string base = stem(path);
       std::string ele, face;
@@ -515,7 +521,7 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
         if (has_utf8_bom(*text)) text->erase(0, 3);
         if (cr_only(*text)) cr_to_lf(*text);
       }
-      s = parse_tetgen(data, ele, face, base, m);
+      s = parse_tetgen(data, ele, face, shown(base), m);
       break;
     }
     default: {
@@ -534,11 +540,11 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
         cr_to_lf(lf);
         bytes = lf;
       }
-      if (f == Format::Medit) s = parse_medit(bytes, path, m, threads);
-      else if (f == Format::MeditBinary) s = parse_meditb(bytes, path, m);
-      else if (f == Format::Gmsh) s = parse_gmsh(bytes, path, m);
-      else if (f == Format::Vtk) s = parse_vtk(bytes, path, m);
-      else s = parse_vtu(bytes, path, m);
+      if (f == Format::Medit) s = parse_medit(bytes, name, m, threads);
+      else if (f == Format::MeditBinary) s = parse_meditb(bytes, name, m);
+      else if (f == Format::Gmsh) s = parse_gmsh(bytes, name, m);
+      else if (f == Format::Vtk) s = parse_vtk(bytes, name, m);
+      else s = parse_vtu(bytes, name, m);
     }
   }
   if (!s) return s;
@@ -547,7 +553,7 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
   if (m.tet_ref.empty()) m.tet_ref.assign(m.nt(), 0);
   if (m.tri_ref.size() < static_cast<size_t>(m.ntri())) m.tri_ref.resize(m.ntri(), 0);
   if (m.edge_ref.size() < m.edges.size() / 2) m.edge_ref.resize(m.edges.size() / 2, 0);
-  if (s = check_arrays(m, path, threads); !s) return s;
+  if (s = check_arrays(m, name, threads); !s) return s;
   OrientationReport r = normalize_orientation(m, threads);
   if (orient) *orient = std::move(r);
   return Status::success();

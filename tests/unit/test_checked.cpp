@@ -1,11 +1,16 @@
 // checked.hpp: the readers' size arithmetic reports overflow instead of
-// wrapping (issue 25).
+// wrapping; and the file names in read messages, escaped (issue 25).
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <unistd.h>
 
 #include "io/checked.hpp"
+#include "tetopt/io.hpp"
+#include "tetopt/mesh.hpp"
 
 using namespace tetopt::detail;
 
@@ -53,4 +58,31 @@ TEST(Checked, SizesSaturateSoTheAllocationFails) {
   EXPECT_TRUE(ck_bytes(1000, 4, 8, b));
   EXPECT_EQ(b, 32000u);
   EXPECT_FALSE(ck_bytes(uint64_t{1} << 44, uint64_t{1} << 20, 8, b));  // 2^67
+}
+
+// ---- file names in the library's read messages (issue 25) ----
+
+// A name with a newline or ESC kept every read message one line only in
+// the CLI (which escaped on printing); the library's own Status, which
+// Python raises as is, printed it raw.
+TEST(ReadMessages, FileNamesAreEscapedInEveryReadError) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("tetopt_names_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string bad = (dir / "a\nb\x1b[31m.mesh").string();
+  {
+    std::ofstream(bad) << "MeshVersionFormatted 2\nDimension 3\nVertices\n1\n0 0 zz 0\nEnd\n";
+  }
+  for (const std::string& path :
+       {bad, (dir / "missing\n.vtu").string(), (dir / "x\n.unknown").string(), (dir / "t\x01s.node").string()}) {
+    tetopt::TetMesh m;
+    const tetopt::Status s = tetopt::read_mesh(path, m);
+    ASSERT_FALSE(s);
+    EXPECT_EQ(s.message.find('\n'), std::string::npos) << s.message;
+    EXPECT_EQ(s.message.find('\x1b'), std::string::npos) << s.message;
+    EXPECT_EQ(s.message.find('\x01'), std::string::npos) << s.message;
+    EXPECT_TRUE(s.message.find("\\n") != std::string::npos || s.message.find("\\x01") != std::string::npos)
+        << s.message;
+  }
+  fs::remove_all(dir);
 }
