@@ -343,7 +343,9 @@ class Driver {
     so.weight = 0.5;  // every tet alike: the mean counts them alike
     smooth(so);
     mean = mean_alpha();
-    info("mean alpha polish: " + std::to_string(mean_before) + " wanted, " + std::to_string(mean) + " reached");
+    if (log_)
+      log_(LogLevel::Debug, "mean alpha polish: " + std::to_string(mean_before) + " wanted, " + std::to_string(mean) +
+                                " reached");
     return mean;
   }
   // The guards' extremes are those of the mesh now (guard.hpp): the extremes
@@ -551,7 +553,10 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   if (r.guard_on) {
     int64_t total = 0;
     for (int64_t n : r.guard_refused) total += n;
-    j << ", \"refused_total\": " << total << ", \"extremes_taken\": " << r.guard_takes << ", \"measures\": {";
+    // The mean alpha guard: the run may not end below the input's mean
+    // alpha (improve's polish); false says it could not be kept.
+    j << ", \"refused_total\": " << total << ", \"extremes_taken\": " << r.guard_takes
+      << ", \"mean_alpha_kept\": " << (r.after.alpha_mean >= r.before.alpha_mean ? "true" : "false") << ", \"measures\": {";
     for (int k = 0; k < kTetMeasureCount; ++k) {
       const MeasureInfo& mi = kMeasures[static_cast<size_t>(k)];
       const double x = r.guard_extreme[static_cast<size_t>(k)];

@@ -232,8 +232,8 @@ int cmd_improve(const std::vector<std::string>& args) {
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }
   if (!quiet) {
-    std::printf("%s -> %s (mode %s, C = %.2f)\n", shown(in).c_str(), shown(out).c_str(), mode_name(opt.mode),
-                opt.weight);
+    std::printf("%s -> %s (mode %s, objective %s, C = %.2f)\n", shown(in).c_str(), shown(out).c_str(),
+                mode_name(opt.mode), objective_name(opt.objective), opt.weight);
     std::printf("%s", format_before_after(rep.before, rep.after, rep.seconds_total).c_str());
     std::printf("  operations: %lld smoothing moves, %lld 2-3, %lld 3-2, %lld edge removals, %lld multi-face "
                 "removals, %lld 2-2, %lld 4-4 (%lld pairs of them made together); %lld all-boundary tets removed; "
@@ -247,6 +247,24 @@ int cmd_improve(const std::vector<std::string>& args) {
     if (rep.untangled > 0 || rep.still_inverted > 0)
       std::printf("  untangling: %lld inverted or flat input tets made positive, %lld could not be (ids in the log)\n",
                   static_cast<long long>(rep.untangled), static_cast<long long>(rep.still_inverted));
+    // Guards (guard.hpp): which measure refused how many operations.
+    if (rep.guard_on) {
+      std::string by;
+      int64_t total_refused = 0;
+      for (int k = 0; k < kTetMeasureCount; ++k)
+        if (const int64_t n = rep.guard_refused[static_cast<size_t>(k)]; n > 0) {
+          total_refused += n;
+          by += (by.empty() ? "" : ", ") + std::string(kMeasures[static_cast<size_t>(k)].key) + " " + std::to_string(n);
+        }
+      std::printf("  guards: %lld operations refused for making a measure worse than the mesh's worst%s%s%s "
+                  "(--no-guard lifts them)\n",
+                  static_cast<long long>(total_refused), by.empty() ? "" : " (", by.c_str(), by.empty() ? "" : ")");
+      if (rep.after.alpha_mean < rep.before.alpha_mean)
+        std::printf("  guards: the mean alpha fell from %.4f to %.4f and the polish could not restore it\n",
+                    rep.before.alpha_mean, rep.after.alpha_mean);
+    } else {
+      std::printf("  guards: off (--no-guard)\n");
+    }
     std::printf("  time: smoothing %.3f s, topology %.3f s, invariant check %.3f s, end to end %.3f s\n",
                 rep.seconds_smooth, rep.seconds_topo, rep.seconds_check, total);
     // Input tets that untangling could not make positive stay as they were
