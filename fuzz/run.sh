@@ -37,7 +37,7 @@ for t in $targets; do
   echo "== fuzz $t for ${secs}s"
   "$build/fuzz/${t}_fuzz" -seed="${FUZZ_SEED:-1}" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
       "${dict[@]}" -artifact_prefix="$build/artifacts/${t}-" -print_final_stats=1 "$work" "$seeds" 2>&1 |
-    grep -E "^(#[0-9]+ +DONE|==[0-9]+==ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|Test unit written|runtime error" 
+    grep -E "^(#[0-9]+[[:space:]]+DONE|==[0-9]+==ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|Test unit written|runtime error" 
   rc=${PIPESTATUS[0]}
   if [ "$rc" -ne 0 ]; then echo "fuzz $t: FAILED (exit $rc), see $build/artifacts/" >&2; status=1; fi
   if [ "${FUZZ_MERGE:-0}" = 1 ]; then
