@@ -106,14 +106,15 @@ class Driver {
     return st.status;
   }
 
-  Status flips(double gamma) {
+  Status flips(double gamma) { return flips(gamma, o_.objective); }
+  Status flips(double gamma, Objective objective) {
     const auto t = Clock::now();
     TopoOptions to;
     to.quality_threshold = gamma;
     to.passes = 3;
     to.threads = threads_;
     to.rebuild_stars = false;
-    to.objective = o_.objective;
+    to.objective = objective;
     to.guard = guard_;
     TopoStats st = flip_pass(m_, to, sub_log_, &alpha_);
     add(st, since(t));
@@ -337,11 +338,27 @@ class Driver {
     double mean = mean_alpha();
     if (!(mean < mean_before) || stopped()) return mean;
     refresh_guard();
-    if (Status st = flips(1.01); !st) return mean;  // every tet: flips that raise a local worst
-    SmoothOptions so = smooth_opts(1.01, kPolishSweeps, false, o_.seed + 0x9E3779B97F4A7C15ull);
-    so.all_vertices = true;
-    so.weight = 0.5;  // every tet alike: the mean counts them alike
-    smooth(so);
+    // The polish raises alpha whatever the objective: its worst is kept by
+    // the flips' and moves' own rules (never below a local worst), and the
+    // objective's measure, guarded for the polish, by the guards.  The
+    // driver's cache holds the objective's q: dropped before and after.
+    const bool other = o_.objective != Objective::Alpha;
+    if (other) {
+      alpha_.clear();
+      if (guard_) guard_->exempt_only(Measure::Alpha);
+    }
+    Status st = flips(1.01, Objective::Alpha);  // every tet: flips that raise a local worst
+    if (st) {
+      SmoothOptions so = smooth_opts(1.01, kPolishSweeps, false, o_.seed + 0x9E3779B97F4A7C15ull);
+      so.all_vertices = true;
+      so.weight = 0.5;  // every tet alike: the mean counts them alike
+      so.objective = Objective::Alpha;
+      smooth(so);
+    }
+    if (other) {
+      alpha_.clear();
+      if (guard_) guard_->exempt_only(objective_measure(o_.objective));
+    }
     mean = mean_alpha();
     if (log_)
       log_(LogLevel::Debug, "mean alpha polish: " + std::to_string(mean_before) + " wanted, " + std::to_string(mean) +

@@ -54,6 +54,12 @@ class Guard {
   /// paper's may-worsen policy for all-boundary tets, the pair search's
   /// first operation) and never end lower.
   void exempt(Measure k) { exempt_[static_cast<size_t>(k)] = true; }
+  /// Leaves only measure k to the engine (the polish of improve.cpp raises
+  /// alpha whatever the objective, and guards the objective's measure).
+  void exempt_only(Measure k) {
+    exempt_.fill(false);
+    exempt(k);
+  }
 
   /// Whether a tet that held an extreme when they were taken has changed
   /// since (its slot holds other vertices, or one of them moved): only then
