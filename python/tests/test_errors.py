@@ -356,3 +356,17 @@ def test_reading_a_mesh_too_big_for_memory_raises_memory_error(tmp_path, cli):
             if r.stdout.startswith("MemoryError"):
                 assert f"b.{ext}" in r.stdout and "out of memory" in r.stdout, r.stdout
         assert "MemoryError" in outcomes, (ext, outcomes)
+
+
+def test_objective_and_guard_options():
+    """objective= chooses what every stage raises; guard= lifts the guards
+    (issue 26); both reach the report, and a bad value is a ValueError."""
+    p, t, r, rep = tetopt.improve(P, T, objective="sine")
+    assert rep["options"]["objective"] == "sine" and rep["options"]["guard"] is True
+    assert rep["guards"]["on"] is True and "sine_min" in rep["guards"]["measures"]
+    p, t, r, rep = tetopt.improve(P, T, objective="jacobian", guard=False)
+    assert rep["options"]["objective"] == "jacobian" and rep["guards"] == {"on": False}
+    with pytest.raises(ValueError, match="objective: expected 'alpha', 'sine', 'jacobian' or 'skewness'"):
+        tetopt.improve(P, T, objective="openfoam")
+    with pytest.raises(ValueError, match="guard: expected a bool"):
+        tetopt.improve(P, T, guard="yes")
