@@ -17,6 +17,7 @@ constexpr size_t idx(Measure k) { return static_cast<size_t>(k); }
 }  // namespace
 
 namespace {
+thread_local Guard::Counts* tl_deferred = nullptr;  // Guard::Deferred
 using Oriented = std::array<double, kTetMeasureCount>;
 // A block's minima and the first tet holding each.
 struct Part {
@@ -138,7 +139,8 @@ bool Guard::admits(const double* a, const double* b, const double* c, const doub
   if (!on_) return true;
   auto refuse = [&](Measure k) {
     if (exempt_[idx(k)]) return true;
-    refused_[idx(k)].fetch_add(1, std::memory_order_relaxed);
+    if (tl_deferred) ++(*tl_deferred)[idx(k)];
+    else refused_[idx(k)].fetch_add(1, std::memory_order_relaxed);
     return false;
   };
   // Cheapest first; each comparison is "not worse than the extreme" (NaN
@@ -177,6 +179,17 @@ bool Guard::stale(const TetMesh& m) const {
     }
   }
   return false;
+}
+
+Guard::Deferred::Deferred(Counts& into) : prev_(tl_deferred) {
+  into.fill(0);
+  tl_deferred = &into;
+}
+Guard::Deferred::~Deferred() { tl_deferred = prev_; }
+
+void Guard::add_refused(const Counts& c) const {
+  for (size_t k = 0; k < c.size(); ++k)
+    if (c[k]) refused_[k].fetch_add(c[k], std::memory_order_relaxed);
 }
 
 int64_t Guard::refused_total() const {

@@ -1466,6 +1466,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
       uint8_t state = 0;  // 0 not planned (not eligible when planned), 1 refused, 2 applied
       uint32_t epoch = 0;  // the stamp taken just before it was planned
       std::vector<int32_t> reads;
+      Guard::Counts refused{};  // the guards' refusals while planning it, counted when it is used
     };
     std::vector<Plan> plan(W);
     std::vector<PackedCandidate> chosen(W);
@@ -1488,6 +1489,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
       }
       Candidate* c = &sc.a;
       Candidate* b = &sc.b;
+      const Guard::Deferred deferred(p.refused);
       if (plan_best(t, strict, c, b, &p.reads) == TopoResult::Applied) {
         pack(*b, chosen[i]);
         p.state = 2;
@@ -1546,6 +1548,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
             }
             ++redone;
           }
+          if (o_.guard) o_.guard->add_refused(plan[i].refused);  // the plan the serial loop would make
           if (plan[i].state == 2) {
             unpack(chosen[i], *best_);
             commit(*best_);

@@ -67,6 +67,25 @@ class Guard {
   /// admitted.  The driver takes the extremes again only when stale.
   bool stale(const TetMesh& m) const;
 
+  /// Refusal counts by measure.
+  using Counts = std::array<int64_t, kTetMeasureCount>;
+  /// While one is alive on a thread, the refusals made on that thread go to
+  /// `into` instead of the guard: the topology passes plan windows of tets
+  /// in parallel and plan again those a commit invalidated, so a plan's
+  /// refusals are added (add_refused) only when the plan is used, and the
+  /// counts are the same for every thread count, as the mesh is.
+  class Deferred {
+   public:
+    explicit Deferred(Counts& into);
+    ~Deferred();
+    Deferred(const Deferred&) = delete;
+    Deferred& operator=(const Deferred&) = delete;
+
+   private:
+    Counts* prev_;
+  };
+  void add_refused(const Counts& c) const;
+
   bool on() const { return on_; }
   double extreme(Measure k) const { return worst_[static_cast<size_t>(k)]; }
   int64_t refused(Measure k) const { return refused_[static_cast<size_t>(k)].load(std::memory_order_relaxed); }
