@@ -233,3 +233,30 @@ TEST(Objective, NoGuardTakesNoExtremes) {
   EXPECT_NE(js.find("\"guards\": {\"on\": false}"), std::string::npos) << js;
   EXPECT_NE(js.find("\"guard\": false"), std::string::npos);
 }
+
+// The mesh is the same for every thread count, and so are the guards'
+// counts (refusals while planning in parallel are counted when the plan is
+// used: Guard::Deferred).
+TEST(Objective, GuardCountsAreTheSameForEveryThreadCount) {
+  const TetMesh m0 = needle_box(8, 4, 2);
+  std::vector<TetMesh> out;
+  std::vector<ImproveReport> reps;
+  for (int threads : {1, 2, 3}) {
+    TetMesh m = m0;
+    ImproveOptions opt;
+    opt.threads = threads;
+    ImproveReport rep;
+    ASSERT_TRUE(improve(m, opt, rep));
+    out.push_back(m);
+    reps.push_back(rep);
+  }
+  int64_t refused = 0;
+  for (int64_t n : reps[0].guard_refused) refused += n;
+  EXPECT_GT(refused, 0);
+  for (size_t i = 1; i < out.size(); ++i) {
+    EXPECT_EQ(out[i].xyz, out[0].xyz);
+    EXPECT_EQ(out[i].tets, out[0].tets);
+    EXPECT_EQ(reps[i].guard_refused, reps[0].guard_refused);
+    EXPECT_EQ(reps[i].guard_takes, reps[0].guard_takes);
+  }
+}
