@@ -1032,8 +1032,16 @@ class GmshWriter {
       if (have_given && (*given)[static_cast<size_t>(i)] > 0) return (*given)[static_cast<size_t>(i)];
       return r > 0 ? r : 0;
     };
-    int32_t next = 1;
-    for (int32_t i = 0; i < n; ++i) next = std::max(next, desired(i, ref_of(i)) + 1);
+    // Fresh tags start above every wanted one; in 64 bits, since a wanted
+    // tag may be INT32_MAX (a fuzzed file: desired + 1 overflowed int32).
+    // Past INT32_MAX, a fresh tag is the smallest positive one that no
+    // element wants and none uses yet.
+    int64_t next = 1;
+    for (int32_t i = 0; i < n; ++i) next = std::max<int64_t>(next, int64_t{desired(i, ref_of(i))} + 1);
+    std::set<int32_t> wanted;
+    int32_t low = 1;
+    if (next > INT32_MAX)
+      for (int32_t i = 0; i < n; ++i) wanted.insert(desired(i, ref_of(i)));
     std::map<std::pair<int32_t, int32_t>, size_t> key_to_ent;  // (desired, ref) -> index in ents
     std::map<int32_t, bool> used;
     std::pair<int32_t, int32_t> last_key{-1, -1};
@@ -1048,7 +1056,14 @@ class GmshWriter {
         ei = it->second;
       } else {
         int32_t tag = key.first;
-        if (tag <= 0 || used.count(tag)) tag = next++;
+        if (tag <= 0 || used.count(tag)) {
+          if (next <= INT32_MAX) {
+            tag = static_cast<int32_t>(next++);
+          } else {
+            while (wanted.count(low) || used.count(low)) ++low;
+            tag = low++;
+          }
+        }
         used[tag] = true;
         Entity e;
         e.dim = dim;
