@@ -2,6 +2,7 @@
 #include <malloc.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <future>
@@ -13,6 +14,7 @@
 #include "tetopt/diagnose.hpp"
 #include "tetopt/html_report.hpp"
 #include "tetopt/improve.hpp"
+#include "tetopt/measures.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/report.hpp"
 
@@ -162,6 +164,12 @@ int cmd_improve(const std::vector<std::string>& args) {
   if (!field.empty()) alpha_before = TetValueMap(m, compute_fields(m).alpha);
   QualityHistograms hist_before;
   if (!html.empty()) hist_before = quality_histograms(m);
+  // The report compares every measure of measures.hpp before and after,
+  // the face measures (OpenFOAM's non-orthogonality and skewness, which the
+  // guards do not hold per operation) included: two measure passes, only
+  // when a report is asked for.
+  MeasureStats measures_before;
+  if (!report_path.empty()) measures_before = compute_measure_stats(m, opt.threads);
   ImproveReport rep;
   Status s = improve(m, opt, rep, log, &g_interrupted);
   if (tty) std::fputs("\033[K", stderr);
@@ -205,12 +213,29 @@ int cmd_improve(const std::vector<std::string>& args) {
   }
   if (!report_path.empty()) {
     std::string js = report_to_json(rep, opt, in, out);
+    // "measures_before_after": each measure's worst before and after, and
+    // whether the run kept it (not worse).
+    const MeasureStats measures_after = compute_measure_stats(m, opt.threads);
+    std::string ba = "{";
+    char num[64];
+    auto fmt = [&](double x) {
+      if (!std::isfinite(x)) return std::string("null");
+      std::snprintf(num, sizeof num, "%.17g", x);
+      return std::string(num);
+    };
+    for (int k = 0; k < kMeasureCount; ++k) {
+      const Measure mk = static_cast<Measure>(k);
+      const double wb = measures_before[mk].worst, wa = measures_after[mk].worst;
+      ba += std::string(k ? ", " : "") + "\"" + kMeasures[static_cast<size_t>(k)].key + "\": {\"before\": " + fmt(wb) +
+            ", \"after\": " + fmt(wa) + ", \"kept\": " + (worse(mk, wa, wb) ? "false" : "true") + "}";
+    }
+    ba += "}";
     std::string dj = diagnosis_to_json(diag, 1000, 2);
     for (size_t p = dj.find('\n'); p != std::string::npos; p = dj.find('\n', p + 3)) dj.replace(p, 1, "\n  ");
     const size_t close = js.rfind('}');
     js.insert(close > 0 && js[close - 1] == '\n' ? close - 1 : close, ",\n  \"seconds_end_to_end\": " + std::to_string(total) +
                   ",\n  \"tets_reordered\": " + (order.empty() ? "false" : "true") + ",\n  \"dropped_on_write\": " +
-                  json_string_list(dropped) + ",\n  \"diagnosis\": " + dj);
+                  json_string_list(dropped) + ",\n  \"measures_before_after\": " + ba + ",\n  \"diagnosis\": " + dj);
     s = write_file_atomic(report_path, js);
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }

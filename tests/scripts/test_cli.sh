@@ -339,4 +339,27 @@ if [ -f "$MC" ] && /usr/bin/python3 -c "import meshio" 2>/dev/null; then
   /usr/bin/python3 "$MC" compare "$W/scattered.mesh" "$W/sc1.mesh" > "$W/mc_sc" 2>&1
   check "referee accepts the reordered result" '[ $? -eq 0 ]'
 fi
+# --report compares every measure (tet and face) before and after; with the
+# guards (default) every per-tet measure is kept, and the objective and the
+# guards are in the report (issue 26).
+"$T" generate "$W/mb.mesh" --cells 5 5 5 --jitter 0.42 --seed 11 --regions 2 > /dev/null
+"$T" improve "$W/mb.mesh" -o "$W/mb_out.mesh" --objective sine --report "$W/mb.json" -q
+check "improve --objective sine --report: exit 0" '[ $? -eq 0 ]'
+/usr/bin/python3 - "$W/mb.json" > "$W/mb.out" 2>&1 <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["options"]["objective"] == "sine" and r["options"]["guard"] is True, r["options"]
+ba = r["measures_before_after"]
+keys = ["alpha", "sine_min", "dihedral_min", "dihedral_max", "scaled_jacobian", "radius_ratio", "mean_ratio",
+        "equivolume_skewness", "non_orthogonality", "skewness"]
+assert sorted(ba) == sorted(keys), sorted(ba)
+for k in keys[:8]:
+    assert ba[k]["kept"] is True, (k, ba[k])
+assert ba["sine_min"]["after"] > ba["sine_min"]["before"], ba["sine_min"]
+assert r["guards"]["on"] is True and r["guards"]["mean_alpha_kept"] is True, r["guards"]
+print("ok")
+PY
+check "report: measures_before_after of all 10 measures, per-tet ones kept, sine raised ($(tail -1 "$W/mb.out"))" 'grep -q "^ok" "$W/mb.out"'
+"$T" improve "$W/mb.mesh" -o "$W/mb_x.mesh" --objective openfoam 2> "$W/err"; rc=$?
+check "--objective openfoam (not an objective): exit 1, says which are" '[ $rc -eq 1 ] && grep -q "alpha, sine, jacobian or skewness" "$W/err"'
 exit $fail
