@@ -41,6 +41,7 @@
 #include "tetopt/conventions.hpp"
 #include "tetopt/improve.hpp"
 #include "tetopt/io.hpp"
+#include "tetopt/measures.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/quality.hpp"
 #include "tetopt/status.hpp"
@@ -508,9 +509,12 @@ std::string run_improve(TetMesh& m, const tetopt::ImproveOptions& opt, const py:
   };
   tetopt::ImproveReport rep;
   Status s;
+  tetopt::MeasureStats measures_before, measures_after;  // the report's measures_before_after, as the CLI's
   {
     py::gil_scoped_release nogil;
+    measures_before = tetopt::compute_measure_stats(m, opt.threads);
     s = tetopt::improve(m, opt, rep, fn, &stop);
+    if (s) measures_after = tetopt::compute_measure_stats(m, opt.threads);
   }
   if (pending) throw std::move(*pending);
   throw_status(s, "improve");
@@ -520,7 +524,8 @@ std::string run_improve(TetMesh& m, const tetopt::ImproveOptions& opt, const py:
   // scattered mesh in Morton order first; here the caller owns the order).
   // No file is written here: nothing is dropped on a write.
   js.insert(js.size() - 2, ",\n  \"seconds_end_to_end\": " + std::to_string(total) +
-                               ",\n  \"tets_reordered\": false,\n  \"dropped_on_write\": []");
+                               ",\n  \"tets_reordered\": false,\n  \"dropped_on_write\": [],\n  \"measures_before_after\": " +
+                               tetopt::measures_before_after_json(measures_before, measures_after));
   return js;
 }
 

@@ -690,4 +690,21 @@ std::string measure_stats_to_json(const MeasureStats& s, int indent) {
   return o.str();
 }
 
+std::string measures_before_after_json(const MeasureStats& before, const MeasureStats& after) {
+  std::string ba = "{";
+  char num[64];
+  auto fmt = [&](double x) {
+    if (!std::isfinite(x)) return std::string("null");
+    std::snprintf(num, sizeof num, "%.17g", x);
+    return std::string(num);
+  };
+  for (int k = 0; k < kMeasureCount; ++k) {
+    const Measure mk = static_cast<Measure>(k);
+    const double wb = before[mk].worst, wa = after[mk].worst;
+    ba += std::string(k ? ", " : "") + "\"" + kMeasures[static_cast<size_t>(k)].key + "\": {\"before\": " + fmt(wb) +
+          ", \"after\": " + fmt(wa) + ", \"kept\": " + (worse(mk, wa, wb) ? "false" : "true") + "}";
+  }
+  return ba + "}";
+}
+
 }  // namespace tetopt

@@ -215,21 +215,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     std::string js = report_to_json(rep, opt, in, out);
     // "measures_before_after": each measure's worst before and after, and
     // whether the run kept it (not worse).
-    const MeasureStats measures_after = compute_measure_stats(m, opt.threads);
-    std::string ba = "{";
-    char num[64];
-    auto fmt = [&](double x) {
-      if (!std::isfinite(x)) return std::string("null");
-      std::snprintf(num, sizeof num, "%.17g", x);
-      return std::string(num);
-    };
-    for (int k = 0; k < kMeasureCount; ++k) {
-      const Measure mk = static_cast<Measure>(k);
-      const double wb = measures_before[mk].worst, wa = measures_after[mk].worst;
-      ba += std::string(k ? ", " : "") + "\"" + kMeasures[static_cast<size_t>(k)].key + "\": {\"before\": " + fmt(wb) +
-            ", \"after\": " + fmt(wa) + ", \"kept\": " + (worse(mk, wa, wb) ? "false" : "true") + "}";
-    }
-    ba += "}";
+    const std::string ba = measures_before_after_json(measures_before, compute_measure_stats(m, opt.threads));
     std::string dj = diagnosis_to_json(diag, 1000, 2);
     for (size_t p = dj.find('\n'); p != std::string::npos; p = dj.find('\n', p + 3)) dj.replace(p, 1, "\n  ");
     const size_t close = js.rfind('}');

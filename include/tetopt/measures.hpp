@@ -202,6 +202,11 @@ MeasureStats compute_measure_stats(const TetMesh& m, int threads = 1);
 /// faces, 0 when it has none).
 std::vector<double> compute_measure_field(const TetMesh& m, Measure k, int threads = 1);
 
+/// JSON object {"<key>": {"before": worst, "after": worst, "kept": bool}, ...}
+/// over every measure of the table (improve's `measures_before_after`:
+/// kept is false when the run ended worse on that measure).
+std::string measures_before_after_json(const MeasureStats& before, const MeasureStats& after);
+
 /// JSON members `"measures": {...}, "faces": {...}` (no braces around them),
 /// each line indented by `indent` spaces, no trailing newline.
 std::string measure_stats_to_json(const MeasureStats& s, int indent);

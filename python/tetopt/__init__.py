@@ -282,8 +282,10 @@ def improve(
             boundary_unchanged, seconds_end_to_end, tets_reordered (always
             False: the tets are improved in the order given, where ``tetopt
             improve`` may first put a large mesh in Morton order),
-            dropped_on_write (always empty: no file is written) (and
-            diagnosis when ``diagnose``).
+            dropped_on_write (always empty: no file is written),
+            guards (what each measure's guard refused), measures_before_after
+            (every measure's worst before and after, faces included, and
+            whether the run kept it) (and diagnosis when ``diagnose``).
 
     Raises:
         ValueError: bad arguments or an invalid mesh (message names it).
