@@ -29,7 +29,6 @@ print(f"| {sys.argv[5]} | {sys.argv[2]} | {sys.argv[3]} | {float(a[0]):.4f} / {f
   row input "$f" - -
   for run in "alpha" "alpha --no-guard" "sine" "jacobian" "skewness"; do
     o=$W/$base.$ext
-    set -- $run
     t0=$(date +%s.%N)
     "$T" improve "$f" -o "$o" -q --objective $run > /dev/null 2>&1 || { echo "| $base | $run | FAILED |"; continue; }
     t1=$(date +%s.%N)

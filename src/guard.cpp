@@ -112,8 +112,7 @@ void Guard::take(const TetMesh& m, int threads, Guard& g) {
 
 void Guard::set_floor(const std::array<double, kTetMeasureCount>& floor) {
   has_floor_ = true;
-  floor_ = floor;
-  apply_floor_and_sine();
+  floor_ = floor;  // applied by take()
 }
 
 void Guard::apply_floor_and_sine() {

@@ -267,8 +267,7 @@ void star_at(const TetMesh& m, int32_t v, const double* p, double C, double* f_o
       const int32_t* tv = m.tet(t);
       const double* q[4];
       for (int k = 0; k < 4; ++k) q[k] = k == slot ? p : m.point(tv[k]);
-      const double a = obj == Objective::Alpha ? alpha(q[0], q[1], q[2], q[3])
-                                               : objective_quality(obj, q[0], q[1], q[2], q[3]);
+      const double a = objective_quality(obj, q[0], q[1], q[2], q[3]);
       worst = std::min(worst, a);
       if (alphas_out) alphas_out[it - m.star_begin(v)] = a;
     }

@@ -329,7 +329,7 @@ TopoEditor::~TopoEditor() {
 
 double TopoEditor::quality(const double* a, const double* b, const double* c, const double* d) const {
   if (o_.measure == TopoMeasure::Alpha) {
-    const double q = o_.objective == Objective::Alpha ? alpha(a, b, c, d) : objective_quality(o_.objective, a, b, c, d);
+    const double q = objective_quality(o_.objective, a, b, c, d);
     return q < o_.alpha_floor ? -kInf : q;
   }
   // Dihedral measure: min over the six angles of theta / lo (small angles)

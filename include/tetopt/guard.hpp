@@ -44,9 +44,9 @@ class Guard {
   /// refusal is counted against the first measure it fails.
   bool admits(const double* a, const double* b, const double* c, const double* d) const;
 
-  /// Lowers each extreme to floor[k] (a value of measure k) where that is
-  /// worse: tetopt-mpi's parts are guarded by the whole mesh's extremes,
-  /// not by their own better ones.  Kept through later take()s.
+  /// From the next take() on, each extreme is lowered to floor[k] (a value
+  /// of measure k; NaN: none) where that is worse: tetopt-mpi's parts are
+  /// guarded by the whole mesh's extremes, not by their own better ones.
   void set_floor(const std::array<double, kTetMeasureCount>& floor);
 
   /// Leaves measure k to the engine's own rules: the objective's worst is

@@ -450,47 +450,6 @@ TEST(IoVtkHostile, VtuErrors) {
   expect_error(asc, ErrorCode::Parse, line, "'zz'", true);
 }
 
-// A zlib "bomb": 16 blocks of 16 MiB of zeros (a few KB each once
-// compressed) where the Points of 4 vertices need 96 bytes.  The header
-// already says the size is wrong: refused before inflating anything (the
-// reader used to allocate and fill 256 MiB first).
-TEST(IoVtkHostile, CompressedArrayOfTheWrongSizeIsNotInflated) {
-  const uLong bs = uLong{16} << 20;
-  const std::string zeros(bs, '\0');
-  std::string block(compressBound(bs), '\0');
-  uLongf cs = static_cast<uLongf>(block.size());
-  ASSERT_EQ(compress2(reinterpret_cast<Bytef*>(block.data()), &cs, reinterpret_cast<const Bytef*>(zeros.data()), bs, 9),
-            Z_OK);
-  block.resize(cs);
-  const uint32_t nb = 16;
-  std::string payload;
-  auto word = [&](uint32_t w) { payload.append(reinterpret_cast<const char*>(&w), 4); };  // little-endian host
-  word(nb);
-  word(static_cast<uint32_t>(bs));
-  word(static_cast<uint32_t>(bs));
-  for (uint32_t b = 0; b < nb; ++b) word(static_cast<uint32_t>(cs));
-  for (uint32_t b = 0; b < nb; ++b) payload += block;
-  const std::string vtu =
-      "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-      "header_type=\"UInt32\" compressor=\"vtkZLibDataCompressor\">\n<UnstructuredGrid>\n"
-      "<Piece NumberOfPoints=\"4\" NumberOfCells=\"1\">\n<Points>\n"
-      "<DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" format=\"appended\" offset=\"0\"/>\n"
-      "</Points>\n<Cells>\n"
-      "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">0 1 2 3</DataArray>\n"
-      "<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">4</DataArray>\n"
-      "<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray>\n"
-      "</Cells>\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"raw\">\n_" +
-      payload + "\n</AppendedData>\n</VTKFile>\n";
-  rusage before{};
-  getrusage(RUSAGE_SELF, &before);
-  expect_error(vtu, ErrorCode::Parse, 6, "holds 33554432 values instead of 12", true);
-  rusage after{};
-  getrusage(RUSAGE_SELF, &after);
-  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 64 * 1024) << "KB of peak memory added";  // 256 MiB when inflated
-}
-
-// ------------------------------------------------------------ compressed VTU headers (issue 25)
-
 namespace {
 // The zlib-compressed payload VTK writes for `data`: [nb][bs][last][cs...]
 // then the blocks, each header word `hb` bytes (4: UInt32, 8: UInt64).
@@ -540,6 +499,38 @@ std::string eight_points() {
   return pts;
 }
 }  // namespace
+
+// A zlib "bomb": 16 blocks of 16 MiB of zeros (a few KB each once
+// compressed) where the Points of 4 vertices need 96 bytes.  The header
+// already says the size is wrong: refused before inflating anything (the
+// reader used to allocate and fill 256 MiB first).
+TEST(IoVtkHostile, CompressedArrayOfTheWrongSizeIsNotInflated) {
+  const uLong bs = uLong{16} << 20;
+  const std::string zeros(bs, '\0');
+  std::string block(compressBound(bs), '\0');
+  uLongf cs = static_cast<uLongf>(block.size());
+  ASSERT_EQ(compress2(reinterpret_cast<Bytef*>(block.data()), &cs, reinterpret_cast<const Bytef*>(zeros.data()), bs, 9),
+            Z_OK);
+  block.resize(cs);
+  const uint32_t nb = 16;
+  std::string payload;
+  auto word = [&](uint32_t w) { payload.append(reinterpret_cast<const char*>(&w), 4); };  // little-endian host
+  word(nb);
+  word(static_cast<uint32_t>(bs));
+  word(static_cast<uint32_t>(bs));
+  for (uint32_t b = 0; b < nb; ++b) word(static_cast<uint32_t>(cs));
+  for (uint32_t b = 0; b < nb; ++b) payload += block;
+  const std::string vtu = compressed_vtu(4, payload, 4);
+  rusage before{};
+  getrusage(RUSAGE_SELF, &before);
+  expect_error(vtu, ErrorCode::Parse, 6, "holds 33554432 values instead of 12", true);
+  rusage after{};
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 64 * 1024) << "KB of peak memory added";  // 256 MiB when inflated
+}
+
+// ------------------------------------------------------------ compressed VTU headers (issue 25)
+
 
 // Valid files of every header width and several block sizes (a last block
 // that is full, partial, and a single block) are read value for value.

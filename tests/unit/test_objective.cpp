@@ -14,8 +14,8 @@
 #include "tetopt/measures.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/objective.hpp"
-#include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
+#include "needle_box.hpp"
 
 using namespace tetopt;
 
@@ -29,27 +29,10 @@ TetMesh box(int n, double jitter, uint64_t seed) {
   return m;
 }
 
-// A jittered box whose bottom face has needle triangles (every third vertex
-// inside it moved almost onto its neighbour in +x), as test_topo's
-// needle_box: a thin wall meshed coarsely, where the unguarded run trades
-// other measures for alpha.  Topology built.
-TetMesh needle_box(int nx, int nz, uint64_t seed) {
-  TetMesh m = make_box_mesh({.nx = nx, .ny = nx, .nz = nz, .jitter = 0.3, .seed = seed});
-  for (int32_t v = 0; v < m.nv(); ++v) {
-    double* p = m.point(v);
-    if (p[2] != 0.0 || p[0] <= 0.5 || p[0] >= nx - 0.5 || p[1] <= 0.5 || p[1] >= nx - 0.5) continue;
-    const long i = std::lround(p[0]), j = std::lround(p[1]);
-    if ((i + j) % 3 != 0) continue;
-    const double old_x = p[0];
-    p[0] = static_cast<double>(i) + 0.999;
-    bool ok = true;
-    for (int32_t t = 0; t < m.nt() && ok; ++t) {
-      const int32_t* q = m.tet(t);
-      if (q[0] == v || q[1] == v || q[2] == v || q[3] == v)
-        ok = orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) == Sign::Positive;
-    }
-    if (!ok) p[0] = old_x;
-  }
+// The needle box (needle_box.hpp) with its topology: a thin wall meshed
+// coarsely, where the unguarded run trades other measures for alpha.
+TetMesh needle_mesh(int nx, int nz, uint64_t seed) {
+  TetMesh m = tetopt_test::needle_box(nx, nz, seed);
   EXPECT_TRUE(build_topology(m));
   return m;
 }
@@ -165,7 +148,7 @@ TEST(Objective, GuardedRunsEndNoWorseOnAnyMeasure) {
 // Where the unguarded run ends worse than its input on some measure (the
 // needle box), the guarded one does not.
 TEST(Objective, GuardsKeepWhatTheUnguardedRunLoses) {
-  const TetMesh m0 = needle_box(8, 4, 1);
+  const TetMesh m0 = needle_mesh(8, 4, 1);
   const std::vector<double> before = worst_oriented(m0);
   int worse_unguarded = 0;
   for (bool guard : {false, true}) {
@@ -238,7 +221,7 @@ TEST(Objective, NoGuardTakesNoExtremes) {
 // counts (refusals while planning in parallel are counted when the plan is
 // used: Guard::Deferred).
 TEST(Objective, GuardCountsAreTheSameForEveryThreadCount) {
-  const TetMesh m0 = needle_box(8, 4, 2);
+  const TetMesh m0 = needle_mesh(8, 4, 2);
   std::vector<TetMesh> out;
   std::vector<ImproveReport> reps;
   for (int threads : {1, 2, 3}) {

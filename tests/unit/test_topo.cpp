@@ -22,6 +22,7 @@
 #include "tetopt/quality.hpp"
 #include "tetopt/smooth.hpp"
 #include "tetopt/topo.hpp"
+#include "needle_box.hpp"
 
 using namespace tetopt;
 
@@ -959,33 +960,7 @@ TEST(Improve, BestModeWidensGammaToTheAffordableSetOnAGenerallyPoorMesh) {
 }
 
 namespace {
-// A jittered nx x nx x nz box whose bottom face (z = 0) has needle
-// triangles: every third vertex strictly inside it, moved within the face
-// almost onto its neighbour in +x (x = i + 0.999).  A move that would make a
-// tet non-positive is undone; *moved counts the others.  The tets on the
-// needles cannot reach a good alpha whatever their apex (a thin vessel wall
-// meshed coarsely: aorta_vessel).  Topology not built.
-TetMesh needle_box(int nx, int nz, uint64_t seed, int* moved) {
-  TetMesh m = make_box_mesh({.nx = nx, .ny = nx, .nz = nz, .jitter = 0.3, .seed = seed});
-  *moved = 0;
-  for (int32_t v = 0; v < m.nv(); ++v) {
-    double* p = m.point(v);
-    if (p[2] != 0.0 || p[0] <= 0.5 || p[0] >= nx - 0.5 || p[1] <= 0.5 || p[1] >= nx - 0.5) continue;
-    const long i = std::lround(p[0]), j = std::lround(p[1]);
-    if ((i + j) % 3 != 0) continue;
-    const double old_x = p[0];
-    p[0] = static_cast<double>(i) + 0.999;
-    bool ok = true;
-    for (int32_t t = 0; t < m.nt() && ok; ++t) {
-      const int32_t* q = m.tet(t);
-      if (q[0] == v || q[1] == v || q[2] == v || q[3] == v)
-        ok = orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) == Sign::Positive;
-    }
-    if (ok) ++*moved;
-    else p[0] = old_x;
-  }
-  return m;
-}
+using tetopt_test::needle_box;
 
 // Tets whose largest dihedral angle exceeds `above` degrees, and the largest.
 int tets_above(const TetMesh& m, double above, double* largest) {
