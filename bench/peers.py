@@ -25,6 +25,10 @@ knows what it must not touch), then runs each tool on it:
           subprocess (Netgen's tets are also left-handed: swapped in and out).
   tetopt  `TETOPT improve input.mesh -o out.mesh` when --tetopt names a binary
           whose `improve --help` works.
+  tetopt-polish  the same with --polish (the mean polish, issue 26).
+  mmg, mmg-insert  MMG's `mmg3d -optim -nosurf` with -noinsert (keeps the
+          vertex set) and without it, when --mmg names an mmg3d binary built
+          outside the repository (its code never enters it).
 
 Every output is judged against the ORIGINAL input by
 `/usr/bin/python3 meshcheck.py compare IN OUT --json` (the independent referee:
@@ -51,7 +55,7 @@ import numpy as np
 PY = "/usr/bin/python3"
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(HERE)
-ALL_TOOLS = ["gmsh", "tetgen", "tetgen-opt", "netgen", "tetopt"]
+ALL_TOOLS = ["gmsh", "tetgen", "tetgen-opt", "netgen", "tetopt", "tetopt-polish", "mmg", "mmg-insert"]
 # TetGen switches: the plain run, and its strongest optimisation (level 9, all of
 # flips/smoothing/edge-face removal, target maximum dihedral 110 degrees; its
 # default target, 165 degrees, leaves meshes already below it untouched)
@@ -355,20 +359,35 @@ def tool_netgen(ctx):
     return out, json.load(open(res))["seconds"], "Mesh.OptimizeVolumeMesh()"
 
 
-def tool_tetopt(ctx):
+def tool_mmg(ctx, insert):
+    exe = ctx.get("mmg")
+    if not exe or not os.access(exe, os.X_OK):
+        return None, None, "skipped: no mmg3d binary (--mmg)"
+    name = "mmg-insert" if insert else "mmg"
+    out = os.path.join(ctx["dir"], name + ".mesh")
+    log = os.path.join(ctx["dir"], name + ".log")
+    cmd = [exe, "-in", ctx["input"], "-out", out, "-optim", "-nosurf", "-v", "1"] + ([] if insert else ["-noinsert"])
+    rc, wall = run_sub(cmd, ctx["timeout"], log)
+    if rc != 0 or not os.path.exists(out):
+        return None, wall, f"mmg3d failed ({rc}): {tail(log)}"
+    return out, wall, "mmg3d " + " ".join(cmd[5:]) + " (whole process)"
+
+
+def tool_tetopt(ctx, extra=()):
     exe = ctx["tetopt"]
     if not exe or not os.access(exe, os.X_OK):
         return None, None, f"skipped: no tetopt binary at {exe!r} (--tetopt)"
     if subprocess.run([exe, "improve", "--help"], capture_output=True).returncode != 0:
         return None, None, "skipped: this tetopt has no working 'improve' command"
-    out = os.path.join(ctx["dir"], "tetopt.mesh")
-    log = os.path.join(ctx["dir"], "tetopt.log")
+    tag = "tetopt" + "".join(extra).replace("--", "-")
+    out = os.path.join(ctx["dir"], tag + ".mesh")
+    log = os.path.join(ctx["dir"], tag + ".log")
     threads = ctx.get("tetopt_threads", 1)
-    note = f"tetopt improve --threads {threads} (whole process)"
+    note = f"tetopt improve {' '.join(extra)} --threads {threads} (whole process)".replace("  ", " ")
     src = ctx["source"]
-    report = os.path.join(ctx["dir"], "tetopt.report.json")
+    report = os.path.join(ctx["dir"], tag + ".report.json")
     for attempt in (0, 1):
-        rc, wall = run_sub([exe, "improve", src, "-o", out, "--threads", str(threads), "--report", report],
+        rc, wall = run_sub([exe, "improve", src, "-o", out, "--threads", str(threads), "--report", report, *extra],
                            ctx["timeout"], log)
         # exit 2 = input error: if tetopt cannot read this format, give it the
         # canonical .mesh copy (same tets, same orientation, exact coordinates)
@@ -389,7 +408,9 @@ def tool_tetopt(ctx):
 
 
 TOOLS = {"gmsh": tool_gmsh, "tetgen": tool_tetgen,
-         "tetgen-opt": lambda ctx: tool_tetgen(ctx, "tetgen-opt"), "netgen": tool_netgen, "tetopt": tool_tetopt}
+         "tetgen-opt": lambda ctx: tool_tetgen(ctx, "tetgen-opt"), "netgen": tool_netgen, "tetopt": tool_tetopt,
+         "tetopt-polish": lambda ctx: tool_tetopt(ctx, ("--polish",)),
+         "mmg": lambda ctx: tool_mmg(ctx, False), "mmg-insert": lambda ctx: tool_mmg(ctx, True)}
 
 
 # --------------------------------------------------------------------------
@@ -459,6 +480,7 @@ def main():
     ap.add_argument("--tetopt", default=os.path.join(REPO, "build", "tetopt"))
     ap.add_argument("--tetopt-threads", type=int, default=1,
                     help="tetopt's --threads (default 1; the peers' optimisers are serial)")
+    ap.add_argument("--mmg", default=os.environ.get("MMG3D", ""), help="an mmg3d binary (tools mmg, mmg-insert)")
     ap.add_argument("--meshcheck", default=os.path.join(REPO, "..", "shared", "tools", "meshcheck.py"))
     args = ap.parse_args()
     tools = [t.strip() for t in args.tools.split(",") if t.strip()]
@@ -485,7 +507,7 @@ def main():
         write_medit(inp, pts, rt, tt, faces, ftags)
         ctx = {"dir": d, "input": inp, "mesh": (pts, rt, tt, faces, ftags), "dom_in": din,
                "dom_out": dout, "timeout": args.timeout, "tetopt": args.tetopt,
-               "tetopt_threads": args.tetopt_threads,
+               "tetopt_threads": args.tetopt_threads, "mmg": args.mmg,
                "source": path, "sign": sign}
         print(f"== {path}: {len(tets)} tets, {len(np.unique(tt))} region(s), "
               f"{len(faces)} constrained faces", flush=True)

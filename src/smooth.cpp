@@ -552,12 +552,35 @@ SmoothResult solve_vertex(TetMesh& m, int32_t v, const SmoothOptions& o, Scratch
   if (m.vert_constrained[v] || m.star_begin(v) == m.star_end(v)) return SmoothResult::BoundaryLocked;
   const double C = clamp_weight(o.weight);
   s.obj = o.objective;
-  gather(m, v, C, s);
-  if (static_cast<int>(s.star_alpha.size()) < s.n) s.star_alpha.resize(s.n);
   const bool maxmin = o.optimizer == Optimizer::MaxMin;
-  double x[3];
-  const bool ok = maxmin ? optimize_maxmin(s, o, x) : optimize_paper(s, o, x);
-  if (!ok) return SmoothResult::Inverted;
+  double x[3] = {0, 0, 0};
+  if (o.optimizer == Optimizer::SmartLaplace) {
+    // The mean of the star's other vertices (each counted once per star tet),
+    // as a step from v: no local frames, no search.
+    const double* org = m.point(v);
+    s.origin[0] = org[0]; s.origin[1] = org[1]; s.origin[2] = org[2];
+    s.n = static_cast<int>(m.star_end(v) - m.star_begin(v));
+    if (static_cast<int>(s.tets.size()) < s.n) s.tets.resize(s.n);
+    for (int i = 0; i < s.n; ++i) {
+      const int32_t t = m.star_begin(v)[i];
+      const int32_t* tv = m.tet(t);
+      LocalTet& L = s.tets[i];  // only the vertex ids: star_positive_at reads them
+      const int slot = slot_of(m, t, v);
+      L.ia = tv[kFaceVertex[slot][0]];
+      L.ib = tv[kFaceVertex[slot][1]];
+      L.ic = tv[kFaceVertex[slot][2]];
+      for (const int32_t u : {L.ia, L.ib, L.ic}) {
+        const double* q = m.point(u);
+        x[0] += q[0] - org[0]; x[1] += q[1] - org[1]; x[2] += q[2] - org[2];
+      }
+    }
+    for (double& c : x) c /= 3.0 * s.n;
+  } else {
+    gather(m, v, C, s);
+    const bool ok = maxmin ? optimize_maxmin(s, o, x) : optimize_paper(s, o, x);
+    if (!ok) return SmoothResult::Inverted;
+  }
+  if (static_cast<int>(s.star_alpha.size()) < s.n) s.star_alpha.resize(s.n);
 
   double f_old = 0, worst_old = 0;
   star_at(m, v, s.origin, C, maxmin ? nullptr : &f_old, &worst_old, nullptr, o.objective);

@@ -145,6 +145,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "--allow-insert") a.opt.allow_insert = true;
     else if (o == "--allow-remove") a.opt.allow_remove = true;
     else if (o == "--no-guard") a.opt.guard = false;
+    else if (o == "--polish") a.opt.polish = true;
     else if (o == "--objective") {
       if (!value()) return R::Error;
       if (!parse_objective(v.c_str(), a.opt.objective))

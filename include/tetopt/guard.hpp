@@ -56,6 +56,9 @@ class Guard {
   void exempt(Measure k) { exempt_[static_cast<size_t>(k)] = true; }
   /// Leaves only measure k to the engine (the polish of improve.cpp raises
   /// alpha whatever the objective, and guards the objective's measure).
+  /// Guards every measure, the objective's too (the mean polish of
+  /// improve.cpp, whose moves do not follow the objective's own rules).
+  void exempt_none() { exempt_.fill(false); }
   void exempt_only(Measure k) {
     exempt_.fill(false);
     exempt(k);

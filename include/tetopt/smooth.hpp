@@ -106,6 +106,7 @@ namespace tetopt {
 enum class Optimizer {
   Paper,   ///< descent on the weighted sum f_v, bracketing + golden section (paper §3.2)
   MaxMin,  ///< Freitag's nonsmooth max-min on the star's worst alpha (weight ignored)
+  SmartLaplace,  ///< one candidate: the mean of the star's other vertices, kept when f_v falls
 };
 
 /// Outcome of one smooth_vertex call.
