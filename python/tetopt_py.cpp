@@ -421,21 +421,24 @@ struct PyImproveOptions {
   bool allow_insert = false, allow_remove = false;
   std::string objective = "alpha";
   bool guard = true;
+  bool polish = false;
 };
 
 /// The diagnosis of m as JSON (the CLI's "diagnosis" object, `max_list`
 /// worst tets) and the per-tet class; runs without the GIL.
-std::string diagnosis_json(const TetMesh& m, double threshold, size_t max_list, std::vector<uint8_t>* classes) {
+std::string diagnosis_json(const TetMesh& m, double threshold, size_t max_list, std::vector<uint8_t>* classes,
+                           bool all_measures) {
 #if TETOPT_PY_HAVE_DIAGNOSE
   py::gil_scoped_release nogil;
   tetopt::DiagnoseOptions dopt;
   dopt.threshold = threshold;
   dopt.mesh_bound = true;
+  dopt.all_measures = all_measures;  // as the CLI: quality always, improve for a non-alpha objective
   tetopt::Diagnosis d = tetopt::diagnose(m, dopt);
   if (classes) *classes = std::move(d.tet_class);
   return tetopt::diagnosis_to_json(d, max_list, 2);
 #else
-  (void)m, (void)threshold, (void)max_list, (void)classes;
+  (void)m, (void)threshold, (void)max_list, (void)classes, (void)all_measures;
   throw std::runtime_error("this build of tetopt has no diagnosis (tetopt/diagnose.hpp)");
 #endif
 }
@@ -469,8 +472,10 @@ tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
   o.allow_insert = p.allow_insert;
   o.allow_remove = p.allow_remove;
   if (!tetopt::parse_objective(p.objective.c_str(), o.objective))
-    throw py::value_error("objective: expected 'alpha', 'sine', 'jacobian' or 'skewness', got '" + p.objective + "'");
+    throw py::value_error("objective: expected 'alpha', 'sine', 'jacobian', 'skewness' or 'openfoam', got '" +
+                          p.objective + "'");
   o.guard = p.guard;
+  o.polish = p.polish;
   return o;
 }
 
@@ -532,7 +537,7 @@ std::string run_improve(TetMesh& m, const tetopt::ImproveOptions& opt, const py:
 /// The CLI's improve report keeps the 1000 worst tets of the diagnosis.
 py::object improve_diagnosis(const TetMesh& m, const tetopt::ImproveOptions& opt, const PyImproveOptions& popt) {
   if (!popt.diagnose) return py::none();
-  return py::str(diagnosis_json(m, opt.threshold, 1000, nullptr));
+  return py::str(diagnosis_json(m, opt.threshold, 1000, nullptr, opt.objective != tetopt::Objective::Alpha));
 }
 
 py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py::handle constrained_faces,
@@ -593,7 +598,7 @@ py::tuple quality_mesh(const py::dict& d, bool diagnose, double threshold) {
   py::object dj = py::none(), classes = py::none();
   if (diagnose) {  // as `tetopt quality --json`: the 100 worst tets
     std::vector<uint8_t> cls;
-    dj = py::str(diagnosis_json(m, threshold, 100, &cls));
+    dj = py::str(diagnosis_json(m, threshold, 100, &cls, true));
     classes = to_numpy(std::vector<int8_t>(cls.begin(), cls.end()), {nt});
   }
   return py::make_tuple(tetopt::stats_to_json(st), dj, classes, to_numpy(std::move(f.alpha), {nt}),
@@ -673,7 +678,8 @@ PYBIND11_MODULE(_tetopt, mod) {
       .def_readwrite("allow_insert", &PyImproveOptions::allow_insert)
       .def_readwrite("allow_remove", &PyImproveOptions::allow_remove)
       .def_readwrite("objective", &PyImproveOptions::objective)
-      .def_readwrite("guard", &PyImproveOptions::guard);
+      .def_readwrite("guard", &PyImproveOptions::guard)
+      .def_readwrite("polish", &PyImproveOptions::polish);
   mod.attr("HAVE_DIAGNOSE") = py::bool_(TETOPT_PY_HAVE_DIAGNOSE != 0);
 
   mod.def("improve_arrays", &improve_arrays, py::arg("points"), py::arg("tets"), py::arg("refs"),

@@ -16,6 +16,7 @@
 #include "detail/vec3.hpp"
 
 #include "tetopt/conventions.hpp"
+#include "tetopt/measures.hpp"
 #include "tetopt/quality.hpp"
 
 namespace tetopt {
@@ -133,6 +134,19 @@ struct Objective {
     if (obj == ApexObjective::Alpha) {
       const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
       return alpha(a, b, c, d);
+    }
+    if (static_cast<int>(obj) >= static_cast<int>(ApexObjective::SineMin)) {
+      const double a[3] = {0, 0, 0}, b[3] = {f.bx, 0, 0}, c[3] = {f.cx, f.cy, 0};
+      switch (obj) {
+        case ApexObjective::SineMin: return sine_min(a, b, c, d);
+        case ApexObjective::ScaledJacobian: return scaled_jacobian(a, b, c, d);
+        case ApexObjective::RadiusRatio: return radius_ratio(a, b, c, d);
+        case ApexObjective::MeanRatio: return mean_ratio(a, b, c, d);
+        default: {
+          const double s = equivolume_skewness(a, b, c, d);
+          return std::isnan(s) ? -1.0 : -s;
+        }
+      }
     }
     double cmin, cmax;
     if (!dihedral_cosines(f, d, cmin, cmax)) return obj == ApexObjective::MinDihedral ? 0.0 : -180.0;
@@ -268,11 +282,31 @@ double compass(const G& g, Vec3& x, double fx, double step, double min_step, int
   return fx;
 }
 
-double degenerate_value(ApexObjective obj) {
-  return obj == ApexObjective::Alpha ? 0.0 : (obj == ApexObjective::MinDihedral ? 0.0 : 180.0);
+// Measures whose public value is minimised (the search maximises minus it).
+bool lower_is_better(ApexObjective obj) {
+  return obj == ApexObjective::MaxDihedral || obj == ApexObjective::Skewness;
 }
 
-double to_public(ApexObjective obj, double score) { return obj == ApexObjective::MaxDihedral ? -score : score; }
+double degenerate_value(ApexObjective obj) {
+  return obj == ApexObjective::MaxDihedral ? 180.0 : (obj == ApexObjective::Skewness ? 1.0 : 0.0);
+}
+
+double to_public(ApexObjective obj, double score) { return lower_is_better(obj) ? -score : score; }
+
+// The measure each apex objective bounds.
+Measure measure_of(ApexObjective obj) {
+  switch (obj) {
+    case ApexObjective::Alpha: return Measure::Alpha;
+    case ApexObjective::MinDihedral: return Measure::DihedralMin;
+    case ApexObjective::MaxDihedral: return Measure::DihedralMax;
+    case ApexObjective::SineMin: return Measure::SineMin;
+    case ApexObjective::ScaledJacobian: return Measure::ScaledJacobian;
+    case ApexObjective::RadiusRatio: return Measure::RadiusRatio;
+    case ApexObjective::MeanRatio: return Measure::MeanRatio;
+    case ApexObjective::Skewness: return Measure::EquivolumeSkewness;
+  }
+  return Measure::Alpha;
+}
 
 }  // namespace
 
@@ -297,9 +331,18 @@ void cheap_apex_values(const double* a, const double* b, const double* c, double
 }  // namespace
 
 double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj) {
-  double v[3];
-  cheap_apex_values(a, b, c, v);
-  return v[static_cast<int>(obj)];
+  if (static_cast<int>(obj) < 3) {
+    double v[3];
+    cheap_apex_values(a, b, c, v);
+    return v[static_cast<int>(obj)];
+  }
+  // The other measures: the best candidate apex, one objective at a time.
+  const Frame f(a, b, c);
+  if (f.degenerate) return degenerate_value(obj);
+  const Objective g{f, obj};
+  double best = -std::numeric_limits<double>::infinity();
+  for (const Vec3& p : candidates(f)) best = std::max(best, g(p));
+  return to_public(obj, best);
 }
 
 namespace {
@@ -349,6 +392,27 @@ ApexResult best_apex(const double* a, const double* b, const double* c, ApexObje
     double fx = nelder_mead(g, x, 0.08, 600);
     fx = std::max(fx, nelder_mead(g, x, 0.01, 400));  // restart: cures stalls at kinks
     if (fx > best) { best = fx; best_p = x; }
+  }
+  if (obj == ApexObjective::SineMin) {
+    // The minimum sine has spikes at the scale of a short edge: an apex
+    // within about that edge's length of it makes a needle tet, whose
+    // dihedral angles are all near 60 or 90 degrees.  Starts at each edge's
+    // own scale (above its midpoint, inward and outward), searched with steps
+    // of that scale.
+    const double px[3] = {0, f.bx, f.cx}, py[3] = {0, 0, f.cy};
+    for (int e = 0; e < 3; ++e) {
+      const int i = e, j = (e + 1) % 3;
+      const double ex = px[j] - px[i], ey = py[j] - py[i], l = std::hypot(ex, ey);
+      if (!(l > 0)) continue;
+      const double mx = (px[i] + px[j]) / 2, my = (py[i] + py[j]) / 2, nx = -ey / l, ny = ex / l;
+      for (double side : {-0.3, 0.0, 0.3})
+        for (double h : {0.5, 0.87}) {
+          Vec3 x{mx + side * l * nx, my + side * l * ny, h * l};
+          double fx = nelder_mead(g, x, 0.1 * l, 300);
+          fx = compass(g, x, fx, 0.05 * l, 1e-6 * l, 300);
+          if (fx > best) { best = fx; best_p = x; }
+        }
+    }
   }
   best = compass(g, best_p, best, 1e-3, 1e-10);
   r.value = to_public(obj, best);
@@ -416,7 +480,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-MeshBound mesh_bound(const TetMesh& m, int threads) {
+MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   const auto t0 = std::chrono::steady_clock::now();
   MeshBound mb;
   const std::vector<int32_t> faces = constrained_faces(m, threads);
@@ -424,8 +488,9 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
   if (faces.empty()) return mb;
   const size_t nf = faces.size();
   // Cheap achieved scores (maximised), per objective.
-  std::vector<double> cheap[3];
-  for (auto& c : cheap) c.resize(nf);
+  const int nobj = all_measures ? kApexObjectives : 3;
+  std::vector<double> cheap[kApexObjectives];
+  for (int o = 0; o < nobj; ++o) cheap[o].resize(nf);
   detail::parallel_for_each(static_cast<int64_t>(nf), threads, [&](int64_t i) {
     const double* p[3];
     face_points(m, faces[i], p);
@@ -436,14 +501,20 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
     cheap[0][i] = std::max(qa, best[0]);
     cheap[1][i] = std::max(qmin, best[1]);
     cheap[2][i] = -std::min(qmax, best[2]);
+    if (nobj > 3) {  // the other measures: the best candidate apex (achieved)
+      for (int o = 3; o < nobj; ++o) {
+        const ApexObjective obj = static_cast<ApexObjective>(o);
+        cheap[o][i] = to_public(obj, cheap_apex_value(p[0], p[1], p[2], obj));
+      }
+    }
   });
   std::vector<uint8_t> refined(nf, 0);
-  const ApexObjective objs[3] = {ApexObjective::Alpha, ApexObjective::MinDihedral, ApexObjective::MaxDihedral};
-  double result[3];
-  size_t arg[3] = {0, 0, 0};
+  double result[kApexObjectives];
+  size_t arg[kApexObjectives] = {};
   std::vector<size_t> heap(nf);
-  std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> cache[3];  // shape -> best value
-  for (int o = 0; o < 3; ++o) {
+  std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> cache[kApexObjectives];  // shape -> best value
+  for (int o = 0; o < nobj; ++o) {
+    const ApexObjective obj = static_cast<ApexObjective>(o);
     // The triangles by increasing cheap score (ties by index), taken from a
     // heap: the loop below stops after the first few, so sorting all of them
     // would be wasted.
@@ -454,14 +525,18 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
     std::make_heap(heap.begin(), heap.end(), after);
     auto heap_end = heap.end();
     // Scores within `tol` of the current minimum are not refined: the bound
-    // is exact to tol (1e-4 in alpha, 0.01 degree), which keeps meshes with
-    // many congruent triangles (generated boxes) from refining them all.
-    const double tol = o == 0 ? 1e-4 : 1e-2;
-    // The dihedral bounds cluster (any triangle with a small angle allows a
-    // min dihedral near 60 degrees and a max near 90), so pruning cannot
+    // is exact to tol (1e-4 in alpha and the other measures scaled to 1 for
+    // the regular tet, 0.01 degree), which keeps meshes with many congruent
+    // triangles (generated boxes) from refining them all.
+    const bool angle = obj == ApexObjective::MinDihedral || obj == ApexObjective::MaxDihedral;
+    const double tol = angle ? 1e-2 : 1e-4;
+    // The angle-like bounds cluster (any triangle with a small angle allows a
+    // min dihedral near 60 degrees and a max near 90; the minimum sine and
+    // the equivolume skewness follow the dihedral angles), so pruning cannot
     // separate them: only the kDihedralExamined lowest are examined, which
-    // makes those two figures estimates (as bound.py's are); alpha is exact
-    // to tol.
+    // makes those figures estimates (as bound.py's are); alpha, the radius
+    // ratio, the mean ratio and the scaled Jacobian are exact to tol.
+    const bool capped = angle || obj == ApexObjective::SineMin || obj == ApexObjective::Skewness;
     constexpr size_t kDihedralExamined = 64;
     double cur = std::numeric_limits<double>::infinity();
     size_t examined = 0;
@@ -469,10 +544,10 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
       std::pop_heap(heap.begin(), heap_end, after);
       const size_t i = *--heap_end;
       if (cheap[o][i] >= cur - tol) break;  // achieved >= current minimum: cannot hold it
-      if (o > 0 && examined++ >= kDihedralExamined) break;
+      if (capped && examined++ >= kDihedralExamined) break;
       const double* p[3];
       face_points(m, faces[i], p);
-      if (quick_score(p[0], p[1], p[2], objs[o]) >= cur - tol) continue;
+      if (quick_score(p[0], p[1], p[2], obj) >= cur - tol) continue;
       std::pair<int64_t, int64_t> key;
       const bool keyed = shape_key(Frame(p[0], p[1], p[2]), key);
       double found;
@@ -480,14 +555,15 @@ MeshBound mesh_bound(const TetMesh& m, int threads) {
       if (it != cache[o].end()) {
         found = it->second;
       } else {
-        found = best_apex(p[0], p[1], p[2], objs[o]).value;
+        found = best_apex(p[0], p[1], p[2], obj).value;
         if (keyed) cache[o].emplace(key, found);
         refined[i] = 1;
       }
-      const double v = std::max(cheap[o][i], objs[o] == ApexObjective::MaxDihedral ? -found : found);
+      const double v = std::max(cheap[o][i], to_public(obj, found));
       if (v < cur) { cur = v; arg[o] = i; }
     }
     result[o] = cur;
+    mb.measure[static_cast<size_t>(measure_of(obj))] = to_public(obj, cur);
   }
   mb.alpha = result[0];
   mb.dihedral_min = result[1];
@@ -586,7 +662,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   std::sort(d.poor.begin(), d.poor.end(), [](const PoorTet& x, const PoorTet& y) {
     return x.alpha < y.alpha || (x.alpha == y.alpha && x.tet < y.tet);
   });
-  if (opt.mesh_bound) d.bound = mesh_bound(m, opt.threads);
+  if (opt.mesh_bound) d.bound = mesh_bound(m, opt.threads, opt.all_measures);
   d.seconds = seconds_since(t0);
   return d;
 }
@@ -621,6 +697,13 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
       << "°, max dihedral ≥ " << fixed(d.bound.dihedral_max, "%.2f") << "°  (triangle of tet "
       << d.bound.alpha_tet + 1 << " at " << fixed(d.bound.alpha_location[0], "%.6g") << " "
       << fixed(d.bound.alpha_location[1], "%.6g") << " " << fixed(d.bound.alpha_location[2], "%.6g") << ")\n";
+    const auto& b = d.bound.measure;
+    auto at = [&](Measure k) { return b[static_cast<size_t>(k)]; };
+    if (!std::isnan(at(Measure::SineMin)))
+      o << "  and minimum sine ≤ " << fixed(at(Measure::SineMin), "%.4f") << ", scaled Jacobian ≤ "
+        << fixed(at(Measure::ScaledJacobian), "%.4f") << ", radius ratio ≤ " << fixed(at(Measure::RadiusRatio), "%.4f")
+        << ", mean ratio ≤ " << fixed(at(Measure::MeanRatio), "%.4f") << ", equivolume skewness ≥ "
+        << fixed(at(Measure::EquivolumeSkewness), "%.4f") << "\n";
   }
   for (size_t i = 0; i < d.poor.size() && i < max_list; ++i) {
     const PoorTet& p = d.poor[i];
@@ -649,7 +732,12 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
     << ", \"max_dihedral_lower_bound\": " << num(d.bound.dihedral_max) << ", \"alpha_tet\": " << d.bound.alpha_tet
     << ", \"alpha_face\": " << d.bound.alpha_face << ", \"alpha_location\": [" << num(d.bound.alpha_location[0])
     << ", " << num(d.bound.alpha_location[1]) << ", " << num(d.bound.alpha_location[2])
-    << "], \"triangles_refined\": " << d.bound.refined << ", \"seconds\": " << num(d.bound.seconds) << "},\n";
+    << "], \"measures\": {";
+  // Every per-tet measure's bound by its key (null: not computed); the face
+  // measures have none (diagnose.hpp, MeshBound::measure).
+  for (int k = 0; k < kTetMeasureCount; ++k)
+    o << (k ? ", " : "") << "\"" << kMeasures[k].key << "\": " << num(d.bound.measure[static_cast<size_t>(k)]);
+  o << "}, \"triangles_refined\": " << d.bound.refined << ", \"seconds\": " << num(d.bound.seconds) << "},\n";
   o << pad << "\"seconds\": " << num(d.seconds) << ",\n";
   o << pad << "\"tets\": [";
   const size_t n = max_list ? std::min(max_list, d.poor.size()) : d.poor.size();

@@ -1,6 +1,8 @@
 // The combined improvement driver (see improve.hpp).
 #include "tetopt/improve.hpp"
 
+#include "tetopt/face_pass.hpp"
+
 #include <chrono>
 #include <algorithm>
 #include <cmath>
@@ -381,6 +383,32 @@ class Driver {
                                 " in " + std::to_string(r_.seconds_polish) + " s");
     return mean;
   }
+  // --objective openfoam: the face pass (face_pass.hpp) after every other
+  // stage, under the guards with no measure exempt (alpha's worst is kept
+  // too), or, with --no-guard, above the mesh's worst alpha.
+  void face_pass_openfoam() {
+    if (stopped()) return;
+    FacePassOptions fo;
+    if (guard_) {
+      refresh_guard();
+      guard_->exempt_none();
+      fo.guard = guard_;
+    } else {
+      fo.alpha_floor = worst();
+    }
+    const FacePassStats fs = face_pass(m_, fo);
+    if (guard_) guard_->exempt_only(Measure::Alpha);
+    alpha_.clear();
+    r_.face_pass_on = true;
+    r_.non_orthogonality_before = fs.worst_before;
+    r_.non_orthogonality_after = fs.worst_after;
+    r_.face_moves = fs.moves;
+    r_.seconds_face = fs.seconds;
+    if (log_)
+      log_(LogLevel::Debug, "face pass: largest non-orthogonality " + std::to_string(fs.worst_before) + " -> " +
+                                std::to_string(fs.worst_after) + " degrees, " + std::to_string(fs.moves) +
+                                " moves in " + std::to_string(fs.sweeps) + " sweeps");
+  }
   // The guards' extremes are those of the mesh now (guard.hpp): the extremes
   // a round reached are not given back by a later round, the final dihedral
   // pass or the polish.  About one measure pass over the tets each, taken
@@ -470,9 +498,14 @@ const char* mode_name(ImproveMode m) {
   return "?";
 }
 
-Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const LogFn& log,
+Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, const LogFn& log,
                const std::atomic<bool>* interrupted) {
   const auto t0 = Clock::now();
+  // --objective openfoam: every per-tet stage raises alpha (a face measure
+  // is not a per-tet objective), then the face pass (face_pass.hpp).
+  ImproveOptions opt = opt_in;
+  const bool openfoam = opt.objective == Objective::OpenFoam;
+  if (openfoam) opt.objective = Objective::Alpha;
   if (m.adj.size() != m.tets.size()) return Status::error(ErrorCode::Invariant, "improve: topology not built");
   rep = ImproveReport{};
   rep.before = compute_stats(m, opt.threads);
@@ -515,6 +548,10 @@ Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& rep, const 
   if (run_status && opt.guard && opt.mode == ImproveMode::Best) {
     ensure_vertex_tets(m, opt.threads);
     d.polish_mean(rep.before.alpha_mean, opt.polish);
+  }
+  if (run_status && openfoam) {
+    ensure_vertex_tets(m, opt.threads);
+    d.face_pass_openfoam();
   }
   ensure_vertex_tets(m, opt.threads);
   rep.guard_on = guard.on();
@@ -583,6 +620,11 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   }
   // Guards: the extreme each measure held and how many operations it
   // refused (the first measure a refused tet failed, in guard.cpp's order).
+  // --objective openfoam: the face pass (face_pass.hpp).
+  if (r.face_pass_on)
+    j << "  \"face_pass\": {\"non_orthogonality_before\": " << num(r.non_orthogonality_before)
+      << ", \"non_orthogonality_after\": " << num(r.non_orthogonality_after) << ", \"moves\": " << r.face_moves
+      << ", \"seconds\": " << num(r.seconds_face) << "},\n";
   j << "  \"guards\": {\"on\": " << (r.guard_on ? "true" : "false");
   if (r.guard_on) {
     int64_t total = 0;

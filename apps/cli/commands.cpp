@@ -201,6 +201,7 @@ int cmd_quality(const std::vector<std::string>& args) {
   bool json = false, hist = true, quiet = false;
   int threads = 0;  // all cores: the same output for any count
   DiagnoseOptions dopt;
+  dopt.all_measures = true;  // the bound of every per-tet measure
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "-h" || a == "--help") { std::fputs(kQualityHelp, stdout); return kExitOk; }

@@ -149,7 +149,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "--objective") {
       if (!value()) return R::Error;
       if (!parse_objective(v.c_str(), a.opt.objective))
-        return bad("--objective is alpha, sine, jacobian or skewness, not '" + v + "'");
+        return bad("--objective is alpha, sine, jacobian, skewness or openfoam, not '" + v + "'");
     }
     else if (o == "--mode") {
       if (!value()) return R::Error;

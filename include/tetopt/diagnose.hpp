@@ -56,11 +56,13 @@
 //                       tell; the method did not reach it.
 // Tets with alpha >= gamma are Good.
 #pragma once
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "tetopt/measures.hpp"
 #include "tetopt/mesh.hpp"
 #include "tetopt/report.hpp"
 
@@ -70,8 +72,17 @@ namespace tetopt {
 enum class ApexObjective {
   Alpha,        ///< alpha (eq. 3.1)
   MinDihedral,  ///< the smallest of the six dihedral angles
-  MaxDihedral   ///< minus the largest dihedral angle (so: the largest is minimised)
+  MaxDihedral,  ///< minus the largest dihedral angle (so: the largest is minimised)
+  // The other per-tet measures of measures.hpp (issue 26): the same
+  // reasoning holds for each (the tet on a kept triangle has some apex), so
+  // min over triangles of the best apex bounds the mesh's worst.
+  SineMin,         ///< Stellar's minimum sine of the dihedral angles
+  ScaledJacobian,  ///< Verdict's normalised scaled Jacobian
+  RadiusRatio,     ///< 3 r / R
+  MeanRatio,       ///< 12 (3V)^(2/3) / sum l^2
+  Skewness         ///< minus the equivolume skewness (so: the skewness is minimised)
 };
+inline constexpr int kApexObjectives = 8;
 
 /// Result of a best-apex search on one triangle.
 struct ApexResult {
@@ -96,6 +107,19 @@ struct MeshBound {
   double alpha = NAN;             ///< min over triangles of best alpha (NaN when none)
   double dihedral_min = NAN;      ///< min over triangles of best min-dihedral (upper bound, deg; estimate)
   double dihedral_max = NAN;      ///< max over triangles of best max-dihedral (lower bound, deg; estimate)
+  /// Every per-tet measure's bound, indexed by Measure (alpha, sine_min,
+  /// dihedral_min, dihedral_max as above): the best worst value any mesh
+  /// keeping the constrained triangles can have (higher-is-better measures:
+  /// an upper bound; dihedral_max and equivolume_skewness: a lower bound).
+  /// NaN when not computed (without all_measures: all but alpha and the
+  /// dihedral angles).  alpha, radius ratio,
+  /// mean ratio and scaled Jacobian are exact to 1e-4 (pruned search over
+  /// every triangle); sine_min, the dihedral angles and the skewness are
+  /// estimates from the 64 triangles lowest by their cheap value.  The face
+  /// measures (non-orthogonality, face skewness) have none: they depend on
+  /// the two tets on either side of an interior face, and a kept triangle
+  /// fixes neither tet's apex, so no per-triangle reasoning bounds them.
+  std::array<double, kTetMeasureCount> measure{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   int32_t alpha_tet = -1, alpha_face = -1;  ///< a tet and local face holding the alpha bound
   double alpha_location[3] = {NAN, NAN, NAN};  ///< centroid of that triangle
   int64_t refined = 0;            ///< triangles searched in full (all objectives)
@@ -103,7 +127,10 @@ struct MeshBound {
 };
 
 /// Computes the mesh-wide bound.  Requires m's topology.
-MeshBound mesh_bound(const TetMesh& m, int threads = 1);
+/// all_measures: also the bounds of sine_min, scaled Jacobian, radius ratio,
+/// mean ratio and equivolume skewness (MeshBound::measure), about twice the
+/// time.
+MeshBound mesh_bound(const TetMesh& m, int threads = 1, bool all_measures = false);
 
 enum class TetClass : uint8_t { Good = 0, LockedByTriangle = 1, LockedByNeighbours = 2, Improvable = 3 };
 const char* tet_class_name(TetClass c);
@@ -138,6 +165,7 @@ struct DiagnoseOptions {
   double threshold = 0.3;   ///< gamma
   bool mesh_bound = true;   ///< also compute the mesh-wide bound
   int threads = 1;          ///< for the scans over all tets and triangles (same result for every count)
+  bool all_measures = false;  ///< the bound of every per-tet measure (mesh_bound's all_measures)
 };
 
 /// Classifies every tet of m (see the essay above).  Requires m's topology.

@@ -53,7 +53,9 @@ class Guard {
   /// what every stage raises, by rules that may lower it for a step (the
   /// paper's may-worsen policy for all-boundary tets, the pair search's
   /// first operation) and never end lower.
-  void exempt(Measure k) { exempt_[static_cast<size_t>(k)] = true; }
+  void exempt(Measure k) {
+    if (static_cast<int>(k) < kTetMeasureCount) exempt_[static_cast<size_t>(k)] = true;  // face measures: never guarded
+  }
   /// Leaves only measure k to the engine (the polish of improve.cpp raises
   /// alpha whatever the objective, and guards the objective's measure).
   /// Guards every measure, the objective's too (the mean polish of

@@ -366,7 +366,12 @@ def test_objective_and_guard_options():
     assert rep["guards"]["on"] is True and "sine_min" in rep["guards"]["measures"]
     p, t, r, rep = tetopt.improve(P, T, objective="jacobian", guard=False)
     assert rep["options"]["objective"] == "jacobian" and rep["guards"] == {"on": False}
-    with pytest.raises(ValueError, match="objective: expected 'alpha', 'sine', 'jacobian' or 'skewness'"):
-        tetopt.improve(P, T, objective="openfoam")
+    p, t, r, rep = tetopt.improve(P, T, objective="openfoam", polish=True)
+    assert rep["options"]["objective"] == "openfoam" and rep["options"]["polish"] is True
+    assert rep["face_pass"]["non_orthogonality_after"] <= rep["face_pass"]["non_orthogonality_before"]
+    with pytest.raises(ValueError, match="polish: expected a bool"):
+        tetopt.improve(P, T, polish="yes")
+    with pytest.raises(ValueError, match="objective: expected 'alpha', 'sine', 'jacobian', 'skewness' or 'openfoam'"):
+        tetopt.improve(P, T, objective="checkmesh")
     with pytest.raises(ValueError, match="guard: expected a bool"):
         tetopt.improve(P, T, guard="yes")

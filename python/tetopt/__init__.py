@@ -144,7 +144,8 @@ class Mesh:
 
 def _options(mode: str, optimizer: str, weight: float, threshold: float, iterations: int, seed: int,
              threads: int, check: bool, diagnose: bool, allow_insert: bool = False,
-             allow_remove: bool = False, objective: str = "alpha", guard: bool = True) -> Any:
+             allow_remove: bool = False, objective: str = "alpha", guard: bool = True,
+             polish: bool = False) -> Any:
     o = _tetopt.ImproveOptions()
     for name, value, kind in (("mode", mode, str), ("optimizer", optimizer, str)):
         if not isinstance(value, kind):
@@ -174,6 +175,9 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
     if not isinstance(guard, (bool, np.bool_)):
         raise ValueError(f"guard: expected a bool, got {guard!r}")
     o.guard = bool(guard)
+    if not isinstance(polish, (bool, np.bool_)):
+        raise ValueError(f"polish: expected a bool, got {polish!r}")
+    o.polish = bool(polish)
     return o
 
 
@@ -210,6 +214,7 @@ def improve(
     allow_remove: bool = False,
     objective: str = "alpha",
     guard: bool = True,
+    polish: bool = False,
 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
     """Improves a tetrahedral mesh; returns ``(points, tets, refs, report)``.
 
@@ -263,13 +268,17 @@ def improve(
             ``vertex_removals``.
         objective: what every stage optimises: 'alpha' (default, the
             paper's), 'sine' (Stellar's minimum sine of the dihedral angles),
-            'jacobian' (Verdict's scaled Jacobian) or 'skewness' (1 - Fluent's
-            equivolume skewness); ``threshold`` applies to it.
+            'jacobian' (Verdict's scaled Jacobian), 'skewness' (1 - Fluent's
+            equivolume skewness) or 'openfoam' (alpha, then a pass lowering
+            OpenFOAM checkMesh's largest face non-orthogonality; the report's
+            ``face_pass`` gives it before and after); ``threshold`` applies to it.
         guard: no operation may create a tet worse than the current worst of
             the mesh on any per-tet measure (alpha, minimum sine, dihedral
             angles, scaled Jacobian, radius ratio, mean ratio, skewness);
             ``report["guards"]`` counts what each refused.  False lifts it
             (``tetopt improve --no-guard``).
+        polish: end with the guarded mean polish whatever the mean alpha
+            (``tetopt improve --polish``): raises the mean, every worst kept.
 
     Returns:
         points: (n, 3) float64, the same vertices (constrained ones bit-identical;
@@ -297,7 +306,7 @@ def improve(
     copy.
     """
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove, objective, guard)
+                 allow_insert, allow_remove, objective, guard, polish)
     p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log)
     return p, t, r, _with_diagnosis(js, dj)
 
@@ -319,6 +328,7 @@ def improve_mesh(
     allow_remove: bool = False,
     objective: str = "alpha",
     guard: bool = True,
+    polish: bool = False,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole :class:`Mesh` (as :func:`read` returns it); returns ``(mesh, report)``.
 
@@ -329,7 +339,7 @@ def improve_mesh(
     mesh is not modified.
     """
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove, objective, guard)
+                 allow_insert, allow_remove, objective, guard, polish)
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
     d, js, dj = _tetopt.improve_mesh(mesh._as_dict(), o, log)

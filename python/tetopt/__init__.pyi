@@ -83,6 +83,7 @@ def improve(
     allow_remove: bool = False,
     objective: str = "alpha",
     guard: bool = True,
+    polish: bool = False,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.int32], Dict[str, Any]]:
     """Improves a tetrahedral mesh without touching its constrained vertices and faces.
 
@@ -108,6 +109,7 @@ def improve_mesh(
     allow_remove: bool = False,
     objective: str = "alpha",
     guard: bool = True,
+    polish: bool = False,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole Mesh as `tetopt improve` does (listed entities constrained, everything kept)."""
 

@@ -360,8 +360,27 @@ assert r["guards"]["on"] is True and r["guards"]["mean_alpha_kept"] is True, r["
 print("ok")
 PY
 check "report: measures_before_after of all 10 measures, per-tet ones kept, sine raised ($(tail -1 "$W/mb.out"))" 'grep -q "^ok" "$W/mb.out"'
-"$T" improve "$W/mb.mesh" -o "$W/mb_x.mesh" --objective openfoam 2> "$W/err"; rc=$?
-check "--objective openfoam (not an objective): exit 1, says which are" '[ $rc -eq 1 ] && grep -q "alpha, sine, jacobian or skewness" "$W/err"'
+"$T" improve "$W/mb.mesh" -o "$W/mb_x.mesh" --objective checkmesh 2> "$W/err"; rc=$?
+check "--objective checkmesh (not an objective): exit 1, says which are" '[ $rc -eq 1 ] && grep -q "alpha, sine, jacobian, skewness or openfoam" "$W/err"'
+# --objective openfoam: the face pass runs after the alpha stages; its
+# report gives the largest non-orthogonality before and after it, no higher
+# after, every per-tet measure kept, and the summary says so.
+"$T" improve "$W/box.mesh" -o "$W/of.mesh" --objective openfoam --report "$W/of.json" > "$W/of.out"
+check "improve --objective openfoam: exit 0" '[ $? -eq 0 ]'
+/usr/bin/python3 - "$W/of.json" > "$W/of.chk" 2>&1 <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+fp = r["face_pass"]
+assert r["options"]["objective"] == "openfoam", r["options"]
+assert fp["non_orthogonality_after"] <= fp["non_orthogonality_before"], fp
+assert abs(r["measures_before_after"]["non_orthogonality"]["after"] - fp["non_orthogonality_after"]) < 1e-9, (r["measures_before_after"]["non_orthogonality"], fp)
+for k, v in r["measures_before_after"].items():
+    if k not in ("non_orthogonality", "skewness"):
+        assert v["kept"] is True, (k, v)
+print("ok", fp["non_orthogonality_before"], fp["non_orthogonality_after"])
+PY
+check "openfoam report: face_pass before/after, the table's value, per-tet worsts kept ($(tail -1 "$W/of.chk"))" 'grep -q "^ok" "$W/of.chk"'
+check "openfoam summary line" 'grep -q "face pass (--objective openfoam): largest non-orthogonality" "$W/of.out"'
 # --polish: the report says so, the mean alpha rises above the same run's
 # without it, and every per-tet measure's worst is kept.
 "$T" improve "$W/box.mesh" -o "$W/pol0.mesh" --report "$W/pol0.json" -q
