@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "tetopt/attachment.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/status.hpp"
 
@@ -100,6 +101,10 @@ struct TetMesh {
   /// format's native convention (positive for all, TetGen .ele included).
   bool flipped_on_read = false;
   int source_format = 0;  ///< tetopt::Format the mesh was read from (io.hpp), 0 unknown
+  /// What the file said about its groups beyond refs and names (OpenFOAM
+  /// patch types, Fluent zone types): attachment.hpp.  The one place for
+  /// format-specific extras; nothing in it is needed to improve the mesh.
+  Attachment attachment;
 
   // ---- derived topology (build_topology) ----
   std::vector<int32_t> vt_offsets;     ///< nv+1

@@ -120,4 +120,8 @@ inline void file_tet(const TetMesh& m, int32_t t, Format target, int32_t out[4])
 Status parse_medit_tuned(std::string_view data, const std::string& name, TetMesh& m, int threads,
                          int64_t min_records, size_t chunk);
 
+/// What the OpenFOAM writer cannot keep of m (dropped_by_format's part for
+/// it; openfoam.cpp).
+std::vector<std::string> openfoam_dropped(const TetMesh& m);
+
 }  // namespace tetopt::detail

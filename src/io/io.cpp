@@ -71,7 +71,36 @@ class MappedFile {
 };
 }  // namespace
 
+namespace {
+bool is_dir(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+bool is_file(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+// The path without trailing slashes ("/" stays).
+std::string no_trailing_slash(std::string p) {
+  while (p.size() > 1 && p.back() == '/') p.pop_back();
+  return p;
+}
+bool names_polymesh(const std::string& path) {
+  const std::string p = no_trailing_slash(path);
+  return p == "polyMesh" || (p.size() > 9 && p.compare(p.size() - 9, 9, "/polyMesh") == 0);
+}
+}  // namespace
+
+std::string openfoam_dir(const std::string& path) {
+  const std::string p = no_trailing_slash(path);
+  if (is_dir(p) && is_file(p + "/owner")) return p;
+  if (is_dir(p) && is_file(p + "/constant/polyMesh/owner")) return p + "/constant/polyMesh";
+  if (names_polymesh(p)) return p;
+  return {};
+}
+
 Format format_from_path(const std::string& path) {
+  if (names_polymesh(path) || (is_dir(path) && !openfoam_dir(path).empty())) return Format::OpenFoam;
   if (ends_with(path, ".meshb")) return Format::MeditBinary;
   if (ends_with(path, ".mesh")) return Format::Medit;
   if (ends_with(path, ".msh")) return Format::Gmsh;
@@ -422,12 +451,58 @@ Status write_medit_streamed(const std::string& path, const TetMesh& m, int threa
 }  // namespace
 
 std::vector<std::string> mesh_files(const std::string& path) {
+  if (format_from_path(path) == Format::OpenFoam) {
+    std::string dir = openfoam_dir(path);
+    if (dir.empty()) dir = no_trailing_slash(path);
+    std::vector<std::string> out;
+    for (const char* f : kFoamFileNames) out.push_back(dir + "/" + f);
+    return out;
+  }
   if (format_from_path(path) != Format::TetGen) return {path};
   const std::string base = stem(path);
   return {base + ".node", base + ".ele", base + ".face"};
 }
 
+namespace {
+// An OpenFOAM output folder: it may not exist yet (the writer makes it and
+// the folders above it); the nearest one that exists must be a folder we
+// can write in, and the folder itself, if it exists, a folder.
+Status check_foam_output(const std::string& path) {
+  std::string p = no_trailing_slash(path);
+  struct stat st {};
+  if (::stat(p.c_str(), &st) == 0) {
+    if (!S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown(p) + ": exists and is not a folder (an OpenFOAM polyMesh is one)");
+    return Status::success();
+  }
+  for (;;) {
+    const size_t slash = p.rfind('/');
+    p = slash == std::string::npos ? "." : (slash == 0 ? "/" : p.substr(0, slash));
+    if (::stat(p.c_str(), &st) == 0) {
+      if (!S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown(p) + ": not a folder");
+      if (::access(p.c_str(), W_OK | X_OK) != 0) return Status::error(ErrorCode::Io, shown(p) + ": cannot create folders in it: " + reason(errno));
+      return Status::success();
+    }
+    if (p == "." || p == "/") return Status::error(ErrorCode::Io, shown(path) + ": no folder above it exists");
+  }
+}
+// mkdir -p.
+Status make_dirs(const std::string& path) {
+  const std::string p = no_trailing_slash(path);
+  if (is_dir(p)) return Status::success();
+  const size_t slash = p.rfind('/');
+  if (slash != std::string::npos && slash > 0)
+    if (Status s = make_dirs(p.substr(0, slash)); !s) return s;
+  if (::mkdir(p.c_str(), 0777) != 0 && errno != EEXIST)
+    return Status::error(ErrorCode::Io, shown(p) + ": cannot create the folder: " + reason(errno));
+  return Status::success();
+}
+}  // namespace
+
 Status check_output_path(const std::string& path) {
+  if (format_from_path(path) == Format::OpenFoam) {
+    if (Status s = check_foam_output(path); !s) return s;
+    if (!is_dir(no_trailing_slash(path))) return Status::success();  // made by the write
+  }
   for (const std::string& f : mesh_files(path)) {
     std::string target;
     if (Status s = follow_links(f, target); !s) return s;
@@ -509,6 +584,27 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
                            name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+    case Format::OpenFoam: {
+      const std::string dir = openfoam_dir(path);
+      if (dir.empty() || !is_dir(dir)) return Status::error(ErrorCode::Io, name + ": no such folder");
+      std::string text[8];
+      std::string_view views[8];
+      for (int k = 0; k < 8; ++k) {
+        const std::string fp = dir + "/" + kFoamFileNames[k];
+        struct stat fst {};
+        if (::stat(fp.c_str(), &fst) != 0) {
+          if (::stat((fp + ".gz").c_str(), &fst) == 0)
+            return Status::error(ErrorCode::Unsupported, shown(fp) + ".gz: compressed polyMesh files are not read (gunzip them first)");
+          if (k < 4) return Status::error(ErrorCode::Io, shown(fp) + ": no such file");
+          continue;  // boundary and zones may be absent
+        }
+        if (s = read_file_bytes(fp, text[k]); !s) return s;
+        if (has_utf8_bom(text[k])) text[k].erase(0, 3);
+        views[k] = text[k];
+      }
+      s = parse_openfoam(views, shown(dir), m);
+      break;
+    }
     case Format::TetGen: {
       const std::string base = stem(path);
       std::string ele, face;
@@ -566,10 +662,14 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
     if (n > 0) out.push_back(what + " (" + std::to_string(n) + unit + ")");
   };
   const bool medit = f == Format::Medit || f == Format::MeditBinary, gmsh = f == Format::Gmsh,
-             vtk = f == Format::Vtk || f == Format::Vtu, tetgen = f == Format::TetGen;
+             vtk = f == Format::Vtk || f == Format::Vtu, tetgen = f == Format::TetGen,
+             foam = f == Format::OpenFoam;
+  // Formats that name groups themselves (patches, zones): the names of the
+  // groups they write are kept; their writer's own list says what is not.
+  const bool names_kept = gmsh || foam;
   if (gmsh || vtk) add(std::count_if(m.vert_ref.begin(), m.vert_ref.end(), [](int32_t r) { return r != 0; }),
                        "vertex refs", " nonzero");
-  if (tetgen) {
+  if (tetgen || foam) {
     add(static_cast<int64_t>(m.edges.size() / 2), "listed edges");
     add(static_cast<int64_t>(m.corners.size()), "corners");
   }
@@ -580,7 +680,7 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
     add(static_cast<int64_t>(m.ridges.size()), "ridges");
   }
   if (!gmsh) {
-    add(static_cast<int64_t>(m.physical_names.size()), "physical names");
+    if (!names_kept) add(static_cast<int64_t>(m.physical_names.size()), "physical names");
     // Entity tags equal to the refs (as the Gmsh writers make them for a mesh
     // from another format) say nothing more.
     int64_t own = 0;
@@ -608,6 +708,8 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
                                });
                       }),
         "point data names with blanks (or empty) as they are", "; written with '_' in their place, 'field' if empty");
+  if (foam)
+    for (std::string& x : detail::openfoam_dropped(m)) out.push_back(std::move(x));
   if (!vtk && !m.point_fields.empty()) {
     std::string names;
     for (const TetMesh::PointField& p : m.point_fields) names += (names.empty() ? "" : ", ") + p.name;
@@ -632,6 +734,15 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
       // with new .node/.ele; the three files all or none.
       const std::vector<std::string> names = mesh_files(path);
       return write_files_atomic({{names[0], out}, {names[1], ele}, {names[2], face}});
+    }
+    case Format::OpenFoam: {
+      std::string files[8];
+      if (s = format_openfoam(m, files, opt.binary); !s) return Status::error(s.code, shown(path) + ": " + s.message);
+      if (s = make_dirs(path); !s) return s;
+      const std::vector<std::string> names = mesh_files(path);
+      std::vector<std::pair<std::string, std::string_view>> set;
+      for (int k = 0; k < 8; ++k) set.emplace_back(names[k], files[k]);
+      return write_files_atomic(set);
     }
     case Format::Medit: return write_medit_streamed(path, m, opt.threads);
     case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;
