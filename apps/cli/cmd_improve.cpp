@@ -163,7 +163,14 @@ int cmd_improve(const std::vector<std::string>& args) {
   TetValueMap alpha_before;
   if (!field.empty()) alpha_before = TetValueMap(m, compute_fields(m).alpha);
   QualityHistograms hist_before;
-  if (!html.empty()) hist_before = quality_histograms(m);
+  ViewTets view_before;  // the 3D view's "before": the input's poor tets, numbered as in IN
+  if (!html.empty()) {
+    hist_before = quality_histograms(m);
+    double origin[3];
+    view_origin(m, origin);
+    view_before = view_poor_tets(m, opt.threshold, HtmlReportInput{}.view_max_tets, origin,
+                                 order.empty() ? nullptr : &order, opt.threads);
+  }
   // The report compares every measure of measures.hpp before and after,
   // the face measures (OpenFOAM's non-orthogonality and skewness, which the
   // guards do not hold per operation) included: two measure passes, only
@@ -239,6 +246,8 @@ int cmd_improve(const std::vector<std::string>& args) {
     hin.options = &opt;
     hin.seconds_end_to_end = total;
     hin.diagnosis = &diag;
+    hin.mesh = &m;  // the 3D view, with the input's poor tets beside the output's
+    hin.poor_before = &view_before;
     s = write_html_report(html, hin);
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }
