@@ -149,10 +149,22 @@ int cmd_improve(const std::vector<std::string>& args) {
   }
   const std::vector<std::string> dropped = warn_dropped(out, m, wo, quiet);
   const bool tty = stderr_is_tty() && !quiet;
+  // The progress line (a terminal only) comes from the library's progress
+  // callback (ImproveOptions::progress), the one Python's improve(progress=)
+  // gets; the passes' own progress messages are left to it.
+  if (tty)
+    opt.progress = [obj = objective_name(opt.objective)](const ImproveProgress& p) {
+      if (p.round > 0)
+        std::fprintf(stderr, "round %d, %s: %3.0f%%, worst %s %.4f\033[K\r", p.round, p.phase, 100 * p.fraction, obj,
+                     p.worst);
+      else
+        std::fprintf(stderr, "%s: %3.0f%%, worst %s %.4f\033[K\r", p.phase, 100 * p.fraction, obj, p.worst);
+      return true;
+    };
   LogFn log = [&](LogLevel lvl, const std::string& msg) {
     if (quiet) return;
     if (lvl == LogLevel::Progress) {
-      if (tty) std::fprintf(stderr, "%s\033[K\r", msg.c_str());
+      return;
     } else if (lvl == LogLevel::Warning) {
       std::fprintf(stderr, "warning: %s\n", msg.c_str());
     } else if (lvl == LogLevel::Info || verbose) {
@@ -180,7 +192,7 @@ int cmd_improve(const std::vector<std::string>& args) {
   ImproveReport rep;
   Status s = improve(m, opt, rep, log, &g_interrupted);
   if (tty) std::fputs("\033[K", stderr);
-  if (!s) {
+  if (!s && !s.stopped()) {
     std::fprintf(stderr, "tetopt: %s: %s\n", shown(in).c_str(), shown(s.message).c_str());
     if (s.code == ErrorCode::Invariant) {
       std::fputs("tetopt: invariant failure (a bug in tetopt): nothing written\n", stderr);
