@@ -268,6 +268,7 @@ int cmd_quality(const std::vector<std::string>& args) {
     hin.before = s;
     hin.before_hist = quality_histograms(m);
     hin.diagnosis = &diag;
+    hin.mesh = &m;  // the 3D view
     Status st = write_html_report(html, hin);
     if (!st) { std::fprintf(stderr, "tetopt: %s\n", shown(st.message).c_str()); return kExitOutput; }
     if (!quiet && !json) std::printf("wrote HTML report to %s\n", shown(html).c_str());
