@@ -539,6 +539,105 @@ def tetgen(m, base=0, attrs=True, markers=True, face=True, comments=False, negat
     return out
 
 
+FOAM_SEP = b"\n@@FILE@@\n"   # as fuzz/openfoam_fuzz.cpp splits its input
+
+
+def polymesh(m, binary=False, msb=False, label=32, scalar=64, compact=None, zones=True, comments=False,
+             old_neighbour=False, uniform_flip=False):
+    """OpenFOAM polyMesh files (points, faces, owner, neighbour, boundary,
+    cellZones, faceZones, pointZones) joined by FOAM_SEP, written from the
+    OpenFOAM user guide (sections 4.1 and 5.1): faces out of their owner,
+    internal faces in upper-triangular order, then the patches (the box's
+    sides by ref); the interface (ref 7) a faceZone with a flipMap, the
+    regions cellZones, vertex 0 a pointZone.  compact: faceCompactList
+    (default in binary, as OpenFOAM writes it); old_neighbour: a neighbour
+    per face, -1 on the boundary (old files)."""
+    if compact is None:
+        compact = binary
+    fv = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))  # outward faces of a positive tet
+    faces = {}
+    for ti, t in enumerate(m.tets):
+        for f in fv:
+            tri = tuple(t[x] for x in f)
+            faces.setdefault(tuple(sorted(tri)), []).append((ti, tri))
+    internal = sorted((min(l[0][0], l[1][0]), max(l[0][0], l[1][0]), k) for k, l in faces.items() if len(l) == 2)
+    flist, owner, neigh = [], [], []
+    for o, n, k in internal:
+        tri = [tri for (ti, tri) in faces[k] if ti == o][0]
+        flist.append(tri); owner.append(o); neigh.append(n)
+    tri_ref = {}
+    for tri, r in zip(m.tris, m.tri_ref):
+        tri_ref.setdefault(tuple(sorted(tri)), r)
+    patches = {}
+    for k, l in sorted(faces.items()):
+        if len(l) == 1:
+            patches.setdefault(tri_ref.get(k, 0), []).append(l[0])
+    plist = []
+    for r in sorted(patches):
+        plist.append(("side%d" % r, len(flist), len(patches[r])))
+        for ti, tri in patches[r]:
+            flist.append(tri); owner.append(ti)
+    index = {tuple(sorted(f)): i for i, f in enumerate(flist)}
+    iface = [(index[tuple(sorted(t))], t) for t, r in zip(m.tris, m.tri_ref) if r == 7]
+    order = ">" if msb else "<"
+    lch, sch = ("q" if label == 64 else "i"), ("d" if scalar == 64 else "f")
+
+    def head(cls, obj):
+        h = "/* seed: %s */\n" % obj if comments else ""
+        h += "FoamFile\n{\n    version 2.0;\n    format %s;\n" % ("binary" if binary else "ascii")
+        if binary or label != 32:
+            h += '    arch "%s;label=%d;scalar=%d";\n' % ("MSB" if msb else "LSB", label, scalar)
+        return h + "    class %s;\n    object %s;\n}\n// * * * //\n\n" % (cls, obj)
+
+    def labels(v):
+        if binary:
+            return ("%d\n(" % len(v)).encode() + b"".join(struct.pack(order + lch, x) for x in v) + b")"
+        return ("%d\n(\n%s)" % (len(v), "".join("%d\n" % x for x in v))).encode()
+
+    pts = head("vectorField", "points").encode()
+    if binary:
+        pts += ("%d\n(" % len(m.xyz)).encode() + b"".join(struct.pack(order + sch * 3, *p) for p in m.xyz) + b")\n"
+    else:
+        pts += ("%d\n(\n%s)\n" % (len(m.xyz), "".join("(%s %s %s)\n" % tuple(fmt(x) for x in p) for p in m.xyz))).encode()
+    fcs = head("faceCompactList" if compact else "faceList", "faces").encode()
+    if compact:
+        fcs += labels([3 * i for i in range(len(flist) + 1)]) + b"\n" + labels([v for f in flist for v in f]) + b"\n"
+    elif binary:
+        fcs += ("%d\n(" % len(flist)).encode() + b"".join(b"3(" + b"".join(struct.pack(order + lch, v) for v in f) + b")"
+                                                        for f in flist) + b")\n"
+    else:
+        fcs += ("%d\n(\n%s)\n" % (len(flist), "".join("3(%d %d %d)\n" % f for f in flist))).encode()
+    own = head("labelList", "owner").encode() + labels(owner) + b"\n"
+    nb = neigh + ([-1] * (len(flist) - len(neigh)) if old_neighbour else [])
+    nei = head("labelList", "neighbour").encode() + labels(nb) + b"\n"
+    bnd = head("polyBoundaryMesh", "boundary") + "%d\n(\n" % len(plist)
+    for i, (name, start, n) in enumerate(plist):
+        extra = "        inGroups List<word> 1(wall);\n" if i == 0 else ""
+        bnd += "    %s\n    {\n        type %s;\n%s        nFaces %d;\n        startFace %d;\n    }\n" % (
+            name, "wall" if i == 0 else "patch", extra, n, start)
+    files = [pts, fcs, own, nei, (bnd + ")\n").encode()]
+    if zones:
+        cz = head("regIOobject", "cellZones").encode() + b"2\n(\n"
+        for r, name in ((1, "left"), (2, "right")):
+            cz += ("%s\n{\n    type cellZone;\n    cellLabels List<label> " % name).encode()
+            cz += labels([i for i, x in enumerate(m.tet_ref) if x == r]) + b";\n}\n"
+        cz += b")\n"
+        fz = head("regIOobject", "faceZones").encode() + b"1\n(\niface\n{\n    type faceZone;\n    faceLabels List<label> "
+        fz += labels([i for i, t in iface]) + b";\n    flipMap List<bool> "
+        flips = [0 if tuple(t) in (tuple(flist[i][j:] + flist[i][:j]) for j in range(3)) else 1 for i, t in iface]
+        if uniform_flip and len(set(flips)) == 1:
+            fz += ("%d{%d}" % (len(flips), flips[0])).encode()
+        elif binary:
+            fz += ("%d\n(" % len(flips)).encode() + bytes(flips) + b")"
+        else:
+            fz += ("%d\n(%s)" % (len(flips), " ".join(str(x) for x in flips))).encode()
+        fz += b";\n}\n)\n"
+        pz = head("regIOobject", "pointZones").encode() + b"1\n(\ncorner\n{\n    type pointZone;\n    pointLabels List<label> "
+        pz += labels([0]) + b";\n}\n)\n"
+        files += [cz, fz, pz]
+    return FOAM_SEP.join(files)
+
+
 # ----------------------------------------------------------------- main ----
 
 def seeds():
@@ -628,6 +727,15 @@ def seeds():
     s["tetgen/seed-tetgen-noface-noattr"] = tetgen(one, attrs=False, markers=False, face=False)
     s["tetgen/seed-tetgen-comments-positive"] = tetgen(two, comments=True, negative=False, base=1)
     s["tetgen/seed-tetgen-jitter"] = tetgen(twoj)
+
+    # OpenFOAM polyMesh (the files joined by FOAM_SEP)
+    s["openfoam/seed-foam-ascii-zones-comments"] = polymesh(two, comments=True)
+    s["openfoam/seed-foam-ascii-nozones-oldneighbour"] = polymesh(one, zones=False, old_neighbour=True)
+    s["openfoam/seed-foam-ascii-compact-uniformflip"] = polymesh(two, compact=True, uniform_flip=True)
+    s["openfoam/seed-foam-binary-lsb-32-64"] = polymesh(two, binary=True)
+    s["openfoam/seed-foam-binary-msb-64-32"] = polymesh(two, binary=True, msb=True, label=64, scalar=32)
+    s["openfoam/seed-foam-binary-facelist"] = polymesh(one, binary=True, compact=False, zones=False)
+    s["openfoam/seed-foam-ascii-jitter"] = polymesh(twoj, zones=False)
     return s
 
 
