@@ -429,9 +429,17 @@ void view_scripts(std::ostringstream& o, const HtmlReportInput& in, const ViewSu
   set_json(o, in.has_after ? "after" : "mesh", in.has_after ? "after" : "mesh", after, surf.origin);
   o << "]";
   const MeshBound& b = in.diagnosis->bound;
-  if (b.alpha_tet >= 0 && std::isfinite(b.alpha))
+  if (b.alpha_tet >= 0 && b.alpha_tet < in.mesh->nt() && b.alpha_face >= 0 && b.alpha_face < 4 && std::isfinite(b.alpha)) {
+    // The triangle holding the mesh-wide bound, drawn whether or not its
+    // tet is poor.
     o << ",\"bound\":{\"tet\":" << b.alpha_tet << ",\"face\":" << b.alpha_face << ",\"alpha\":" << json_number(b.alpha)
-      << "}";
+      << ",\"xyz\":[";
+    const int32_t* tv = in.mesh->tet(b.alpha_tet);
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k)
+        o << (i || k ? "," : "") << json_number(in.mesh->point(tv[kFaceVertex[b.alpha_face][i]])[k] - surf.origin[k]);
+    o << "]}";
+  }
   o << "}</script>\n";
   o << "<script type=\"text/plain\" id=\"tv-three-core\">" << a.three_core << "</script>\n"
     << "<script type=\"text/plain\" id=\"tv-three-module\">" << a.three_module << "</script>\n"
@@ -546,7 +554,8 @@ std::string html_report(const HtmlReportInput& in) {
   std::unique_ptr<ViewTets> after;
   if (in.mesh && in.diagnosis && detail::view3d_assets().built_in) {
     surf = std::make_unique<ViewSurface>(view_surface(*in.mesh, in.view_surface_budget));
-    after = std::make_unique<ViewTets>(view_diagnosed_tets(*in.mesh, *in.diagnosis, in.view_max_tets, surf->origin));
+    const size_t max_tets = in.poor_before ? in.view_max_tets / 2 : in.view_max_tets;
+    after = std::make_unique<ViewTets>(view_diagnosed_tets(*in.mesh, *in.diagnosis, max_tets, surf->origin));
   }
   diagnosis_section(o, in, surf.get(), after.get());
   o << "<p class=\"note\">Written by tetopt. This page is self-contained: no network, no external scripts or "

@@ -140,16 +140,25 @@ ViewSurface view_surface(const TetMesh& m, size_t budget) {
   std::vector<double> cluster_xyz;  // decimated: mean position of each cluster
   if (faces.size() > budget && budget > 0) {
     const double side = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-300});
-    // A closed surface of k triangles on an n-cell grid keeps about
-    // 2 x (surface cells) triangles; start from the cell that would give the
-    // budget on a cube's surface (12 n^2), then shrink by the overshoot.
+    // A surface on an n-cell grid keeps about 2 triangles per surface cell,
+    // so the count goes as n^2: start from the cell that would give the
+    // budget on a cube's surface (12 n^2) and rescale n by the square root
+    // of budget / count until the count lies in [0.85, 1] x budget (a few
+    // passes; the finest grid within the budget is kept).
     double cells = std::min(1.0e6, std::sqrt(static_cast<double>(budget) / 12.0));
-    Clustered c;
-    for (int iter = 0; iter < 30; ++iter) {
+    Clustered c, best;
+    bool have = false;
+    for (int iter = 0; iter < 40; ++iter) {
       c = cluster(m, faces, lo, side / cells * (1 + 1e-9));
-      if (c.faces.size() <= budget) break;
-      cells *= 0.97 * std::sqrt(static_cast<double>(budget) / static_cast<double>(c.faces.size()));
+      const double ratio = static_cast<double>(budget) / static_cast<double>(std::max<size_t>(1, c.faces.size()));
+      if (c.faces.size() <= budget) {
+        if (!have || c.faces.size() > best.faces.size()) best = std::move(c);
+        have = true;
+        if (ratio <= 1 / 0.85 || iter >= 8) break;
+      }
+      cells *= std::min(4.0, 0.98 * std::sqrt(ratio));
     }
+    if (have) c = std::move(best);  // else (no pass within 40) the last, coarsest one
     std::vector<int> members(static_cast<size_t>(c.clusters), 0);
     cluster_xyz.assign(3 * static_cast<size_t>(c.clusters), 0.0);
     for (int32_t v = 0; v < m.nv(); ++v) {

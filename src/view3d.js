@@ -74,7 +74,7 @@ const fmt = {
 const CLASS_NAMES = ['good', 'locked by its boundary triangle', 'locked by its constrained neighbours',
   'improvable (not reached)'];
 const CLASS_COLOURS = ['#9fb3c8', '#e12d39', '#f0b429', '#2680c2'];
-const PALETTE = ['#8fb8de', '#a7d7a0', '#f2c38b', '#c9b1e0', '#f5a3a3', '#9ed9d6', '#e0d58f', '#b8c4d6',
+const PALETTE = ['#5b9bd5', '#70ad47', '#f2c38b', '#c9b1e0', '#f5a3a3', '#9ed9d6', '#e0d58f', '#b8c4d6',
   '#d9a7c7', '#a3c9a8', '#f0b7a1', '#9fb7f0'];
 const BACK_COLOUR = '#d9c7a7';
 const CAP_COLOUR = '#8e24aa';
@@ -82,8 +82,14 @@ const BOUND_COLOUR = '#111111';
 // Worst to least bad among the poor tets.
 const RAMP = ['#7a0019', '#d7301f', '#fc8d59', '#fdcc8a', '#fff3b0'];
 
+// performance.now() at each stage, reported in data-view-stages.
+const stages = [];
+const stage = (name) => stages.push(name + ':' + performance.now().toFixed(0));
+
 async function main() {
+  stage('start');
   const data = JSON.parse($('tv-data').textContent);
+  stage('json');
   const probe = document.createElement('canvas');
   if (!probe.getContext('webgl2') && !probe.getContext('webgl')) {
     say('This browser has no WebGL: the 3D view cannot be drawn. The tables below say the same in numbers.');
@@ -92,6 +98,7 @@ async function main() {
     return;
   }
   const { THREE, OrbitControls } = await loadThree();
+  stage('three');
   const box = $('tv-canvas');
   const W = () => Math.max(100, box.clientWidth), H = () => Math.max(100, box.clientHeight);
 
@@ -123,10 +130,10 @@ async function main() {
   const surfMats = S.groups.map((g, k) => {
     sgeo.addGroup(3 * g[1], 3 * g[2], k);
     return new THREE.MeshLambertMaterial({ color: PALETTE[k % PALETTE.length], side: THREE.FrontSide,
-      flatShading: true, transparent: true, opacity: 0.25, depthWrite: false, clippingPlanes: [clip] });
+      flatShading: true, transparent: true, opacity: 0.35, depthWrite: false, clippingPlanes: [clip] });
   });
   const backMat = new THREE.MeshLambertMaterial({ color: BACK_COLOUR, side: THREE.BackSide, flatShading: true,
-    transparent: true, opacity: 0.25, depthWrite: false, clippingPlanes: [clip] });
+    transparent: true, opacity: 0.35, depthWrite: false, clippingPlanes: [clip] });
   const front = new THREE.Mesh(sgeo, surfMats);
   const back = new THREE.Mesh(sgeo, backMat);
   front.renderOrder = back.renderOrder = 2;
@@ -146,6 +153,7 @@ async function main() {
     return s;
   }
   const sets = data.sets.map(decodeSet);
+  stage('decoded');
   const group = (s) => {
     const g = new THREE.Group();
     g.position.set(s.offset[0], s.offset[1], s.offset[2]);
@@ -171,18 +179,13 @@ async function main() {
     // Locked tets: their edges, coloured by class.
     const lp = [], lc = [], cp = [];
     const colour = new THREE.Color();
-    let bound = null;
     for (let t = 0; t < s.n; ++t) {
       const c = s.cls[t];
       if (c === 1 || c === 2) {
         colour.set(CLASS_COLOURS[c]);
         for (const [a, b] of EV) { lp.push(...P(s, t, a), ...P(s, t, b)); lc.push(colour.r, colour.g, colour.b, colour.r, colour.g, colour.b); }
       }
-      if (s.cap[t] >= 0) {
-        const tri = FV[s.cap[t]].map((i) => P(s, t, i));
-        if (data.bound && s.ids[t] === data.bound.tet && s.cap[t] === data.bound.face) bound = tri;
-        else cp.push(...tri[0], ...tri[1], ...tri[2]);
-      }
+      if (s.cap[t] >= 0) for (const i of FV[s.cap[t]]) cp.push(...P(s, t, i));
     }
     const lgeo = new THREE.BufferGeometry();
     lgeo.setAttribute('position', new THREE.Float32BufferAttribute(lp, 3));
@@ -193,15 +196,20 @@ async function main() {
     cgeo.setAttribute('position', new THREE.Float32BufferAttribute(cp, 3));
     s.caps = new THREE.Mesh(cgeo, new THREE.MeshBasicMaterial({ color: CAP_COLOUR, side: THREE.DoubleSide }));
     s.group.add(s.locked, s.caps);
-    if (bound) {
-      const bgeo = new THREE.BufferGeometry();
-      bgeo.setAttribute('position', new THREE.Float32BufferAttribute(bound.flat(), 3));
-      s.bound = new THREE.Mesh(bgeo, new THREE.MeshBasicMaterial({ color: BOUND_COLOUR, side: THREE.DoubleSide }));
-      s.group.add(s.bound);
-    }
     s.lockedCount = [0, 0, 0, 0];
     for (let t = 0; t < s.n; ++t) s.lockedCount[s.cls[t]]++;
-    s.capCount = cp.length / 9 + (bound ? 1 : 0);
+    s.capCount = cp.length / 9;
+  }
+  // The triangle that holds the mesh-wide bound (diagnose.hpp), in the
+  // surface's frame; shown with the capping triangles.
+  let boundTri = null;
+  if (data.bound) {
+    const bgeo = new THREE.BufferGeometry();
+    bgeo.setAttribute('position', new THREE.Float32BufferAttribute(data.bound.xyz, 3));
+    boundTri = new THREE.Mesh(bgeo, new THREE.MeshBasicMaterial({ color: BOUND_COLOUR, side: THREE.DoubleSide,
+      depthTest: false }));
+    boundTri.renderOrder = 4;
+    scene.add(boundTri);
   }
 
   // ---- colouring by the chosen measure ----
@@ -228,7 +236,7 @@ async function main() {
     return lo <= hi ? [lo, hi] : [0, 1];
   }
   const state = { set: sets.length - 1, measure: 'alpha', surface: true, tets: true, locked: true, caps: true,
-    opacity: 0.25, clipAxis: -1, clipAt: 0.5, selected: -1 };
+    opacity: 0.35, clipAxis: -1, clipAt: 0.5, selected: -1 };
   function paint() {
     const m = measures[state.measure];
     const [lo, hi] = m.categorical ? [0, 1] : range(state.measure);
@@ -252,7 +260,7 @@ async function main() {
   controls.screenSpacePanning = true;
   const bb = sgeo.boundingBox;
   const centre = bb.getCenter(new THREE.Vector3());
-  camera.position.copy(centre).add(new THREE.Vector3(0.9, 0.6, 1.3).normalize().multiplyScalar(diag * 1.5));
+  camera.position.copy(centre).add(new THREE.Vector3(0.8, -1.1, 0.9).normalize().multiplyScalar(diag * 1.5));
   controls.target.copy(centre);
   controls.update();
   let pending = false;
@@ -271,7 +279,9 @@ async function main() {
 
   function apply() {
     for (const m of [...surfMats, backMat]) {
-      m.opacity = state.opacity;
+      // Back faces seen through a see-through front (the far side's inside)
+      // at half the opacity, so the patch colours stay readable.
+      m.opacity = m === backMat && state.opacity < 1 ? state.opacity / 2 : state.opacity;
       m.transparent = state.opacity < 1;
       m.depthWrite = state.opacity >= 1;
       m.needsUpdate = true;
@@ -291,8 +301,8 @@ async function main() {
       s.mesh.visible = on && state.tets;
       if (s.locked) s.locked.visible = on && state.locked;
       if (s.caps) s.caps.visible = on && state.caps;
-      if (s.bound) s.bound.visible = on && state.caps;
     });
+    if (boundTri) boundTri.visible = state.caps;
     render();
   }
 
@@ -404,7 +414,7 @@ async function main() {
     '<label><input type="checkbox" id="tv-show-locked" checked> locked tets</label> ' +
     '<label><input type="checkbox" id="tv-show-caps" checked> capping triangles</label> ' +
     '<label><input type="checkbox" id="tv-show-surface" checked> surface</label></div>' +
-    '<div class="tv-row"><label>surface opacity <input type="range" id="tv-opacity" min="0" max="100" value="25"></label></div>' +
+    '<div class="tv-row"><label>surface opacity <input type="range" id="tv-opacity" min="0" max="100" value="35"></label></div>' +
     '<div class="tv-row"><label>clip the surface <select id="tv-clip">' + opt(-1, 'off', true) + opt(0, 'x') + opt(1, 'y') +
     opt(2, 'z') + '</select></label> <input type="range" id="tv-clip-at" min="0" max="1000" value="500" disabled></div>' +
     '<div class="tv-row note">drag: rotate · right-drag or shift-drag: pan · wheel: zoom · click: pick a tet</div>';
@@ -412,7 +422,7 @@ async function main() {
     const r = document.querySelector('input[name="tv-set"][value="' + state.set + '"]');
     if (r) r.checked = true;
     const s = current();
-    for (const id of ['tv-show-locked', 'tv-show-caps']) $(id).disabled = !s.diagnosed;
+    $('tv-show-locked').disabled = !s.diagnosed;
     legend();
     select(-1);
   }
@@ -446,12 +456,14 @@ async function main() {
     if (s.diagnosed) {
       h += '<div><b>locked tets</b> (edges): ' + sw(CLASS_COLOURS[1], 'by their boundary triangle: ' + s.lockedCount[1]) +
         sw(CLASS_COLOURS[2], 'by their constrained neighbours: ' + s.lockedCount[2]) + '</div>';
-      h += '<div><b>capping triangles</b>: ' + sw(CAP_COLOUR, 'constrained triangle that caps its tet below α = ' +
-        data.threshold + ': ' + s.capCount) + (s.bound ? sw(BOUND_COLOUR, 'the triangle that holds the mesh-wide bound α ≤ ' +
-        data.bound.alpha.toFixed(4)) : '') + '</div>';
+      h += '<div><b>capping triangles</b>: ' + sw(CAP_COLOUR, 'constrained triangles that cap their tet below α = ' +
+        data.threshold + ' (no apex lifts it higher): ' + s.capCount) + '</div>';
     } else {
       h += '<div class="note">Locked tets and capping triangles: the diagnosis describes the mesh after the run.</div>';
     }
+    if (data.bound) h += '<div>' + sw(BOUND_COLOUR, '<b>bound triangle</b>: the constrained triangle that holds the ' +
+      'mesh-wide bound: any mesh keeping the boundary has worst α ≤ ' + data.bound.alpha.toFixed(4) + ' (tet ' +
+      (data.bound.tet + 1) + ')') + '</div>';
     $('tv-legend').innerHTML = h;
   }
 
@@ -469,8 +481,11 @@ async function main() {
   paint();
   syncControls();
   apply();
+  stage('scene');
   requestAnimationFrame(() => {
     renderer.render(scene, camera);
+    stage('frame');
+    html.setAttribute('data-view-stages', stages.join(' '));
     html.setAttribute('data-view-ms', performance.now().toFixed(0));
     html.setAttribute('data-view-ready', '1');
   });

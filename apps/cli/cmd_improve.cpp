@@ -180,7 +180,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     hist_before = quality_histograms(m);
     double origin[3];
     view_origin(m, origin);
-    view_before = view_poor_tets(m, opt.threshold, HtmlReportInput{}.view_max_tets, origin,
+    view_before = view_poor_tets(m, opt.threshold, HtmlReportInput{}.view_max_tets / 2, origin,
                                  order.empty() ? nullptr : &order, opt.threads);
   }
   // The report compares every measure of measures.hpp before and after,

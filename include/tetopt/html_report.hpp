@@ -83,7 +83,11 @@ struct HtmlReportInput {
   /// the run, ids in the input's numbering); null: no "before" in the view.
   const ViewTets* poor_before = nullptr;
   size_t view_surface_budget = 300000;  ///< boundary triangles drawn before decimating (view_surface)
-  size_t view_max_tets = 100000;        ///< poor tets per set in the view, the worst first
+  /// Poor tets in the view, the worst first: all for one set, half each
+  /// when there is a "before" (the caller makes poor_before with half).
+  /// With the surface budget this bounds the page: about 7 MB of surface,
+  /// 6 MB of tets and 0.8 MB of three.js at most.
+  size_t view_max_tets = 50000;
 };
 
 /// The page as one string (UTF-8).
