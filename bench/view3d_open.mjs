@@ -1,12 +1,14 @@
 // Opens a tetopt HTML report in headless Chromium (Debian's /usr/bin/chromium
 // through playwright-core) and measures how long its 3D view takes to draw.
 //   node bench/view3d_open.mjs PAGE.html [runs=N] [shot=FILE.png] [set=before|after|mesh]
+//        [measure=alpha|dmin|dmax|cls] [clip=0|1|2 at=0..1000] [opacity=0..100]
 // Prints, per run and as the median over the runs:
 //   open: from page.goto() to data-view-ready="1" on <html> (the first frame
 //         of the view drawn), wall clock in this process;
 //   first frame: performance.now() at that frame (from the navigation's start),
 //         with the stages of src/view3d.js (data-view-stages).
-// shot: a PNG of the view (#view3d: canvas, controls, legend) after the last run.
+// shot: a PNG of the view (#view3d: canvas, controls, legend) after the last
+// run, with the set, colouring, clipping plane and opacity given.
 // WebGL runs on SwiftShader (no GPU here): a machine with a GPU draws faster.
 import { chromium } from 'playwright-core';
 
@@ -47,6 +49,12 @@ if (opt.shot) {
       if (r) r.click();
     }, opt.set);
   }
+  if (opt.measure) await page.selectOption('#tv-measure', opt.measure);
+  if (opt.clip) {
+    await page.selectOption('#tv-clip', opt.clip);
+    if (opt.at) await page.locator('#tv-clip-at').fill(opt.at);
+  }
+  if (opt.opacity) await page.locator('#tv-opacity').fill(opt.opacity);
   await page.waitForTimeout(300);
   await page.locator('#view3d').screenshot({ path: opt.shot });
   console.log('wrote ' + opt.shot);

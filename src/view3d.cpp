@@ -97,7 +97,10 @@ ViewSurface view_surface(const TetMesh& m, size_t budget) {
   std::sort(listed.begin(), listed.end());
   s.by_patch = !listed.empty();
   std::vector<Face> faces;
-  for (int32_t t = 0; t < m.nt(); ++t)
+  // Without face adjacency (build_topology not run) there is no boundary to
+  // draw: an empty surface.
+  const int32_t nt_adj = m.adj.size() == m.tets.size() ? m.nt() : 0;
+  for (int32_t t = 0; t < nt_adj; ++t)
     for (int f = 0; f < 4; ++f) {
       if (m.adj[4 * static_cast<size_t>(t) + static_cast<size_t>(f)] != -1) continue;
       const int32_t* tv = m.tet(t);

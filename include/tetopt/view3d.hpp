@@ -52,7 +52,7 @@ struct ViewSurface {
 /// the same before and after a run, which keeps the boundary).
 void view_origin(const TetMesh& m, double origin[3]);
 
-/// The boundary surface of m (requires m's topology).  A face takes the ref
+/// The boundary surface of m (requires m's topology; without it, empty).  A face takes the ref
 /// of the listed triangle with its vertices when the file lists triangles
 /// (the patch), otherwise its tet's region ref.  More than `budget`
 /// triangles: decimated for display (see above).
