@@ -391,11 +391,13 @@ void view_section(std::ostringstream& o, const HtmlReportInput& in, const ViewSu
   const ViewSurface& surf = *sp;
   const ViewTets& after = *ap;
   if (surf.decimated)
-    o << "<span id=\"tv-decimated\">The boundary has " << surf.triangles_full << " triangles, more than the view's "
+    o << "<span id=\"tv-decimated\">The constrained surface (boundary, region interfaces, listed triangles) has "
+      << surf.triangles_full << " triangles, more than the view's "
       << "budget of " << in.view_surface_budget << ": it draws " << surf.tris.size() / 3
       << ", decimated for display only (vertex clustering, Rossignac and Borrel 1993); the mesh is unchanged.</span> ";
   else
-    o << "The view draws all " << surf.triangles_full << " boundary triangles. ";
+    o << "The view draws all " << surf.triangles_full
+      << " constrained triangles (boundary, region interfaces, listed triangles). ";
   auto shown = [&](const char* label, const ViewTets& t) {
     o << label << ": " << t.ids.size() << " tets with α &lt; " << f("%.3g", in.diagnosis->threshold);
     if (static_cast<int64_t>(t.ids.size()) < t.below) o << " shown, the worst of " << t.below;
@@ -403,7 +405,7 @@ void view_section(std::ostringstream& o, const HtmlReportInput& in, const ViewSu
   };
   if (in.poor_before) shown("Before", *in.poor_before);
   shown(in.has_after ? "After" : "Mesh", after);
-  o << "Only the boundary and the poor tets are in the page. The surface is drawn see-through (opacity slider) "
+  o << "Only the constrained surface and the poor tets are in the page. The surface is drawn see-through (opacity slider) "
        "and can be cut by a plane; tets are coloured by the measure chosen.</p>\n";
 }
 

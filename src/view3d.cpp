@@ -100,9 +100,19 @@ ViewSurface view_surface(const TetMesh& m, size_t budget) {
   // Without face adjacency (build_topology not run) there is no boundary to
   // draw: an empty surface.
   const int32_t nt_adj = m.adj.size() == m.tets.size() ? m.nt() : 0;
+  const bool masks = m.face_mask.size() == static_cast<size_t>(m.nt());
+  auto region = [&](int32_t t) { return m.tet_ref.empty() ? 0 : m.tet_ref[static_cast<size_t>(t)]; };
   for (int32_t t = 0; t < nt_adj; ++t)
     for (int f = 0; f < 4; ++f) {
-      if (m.adj[4 * static_cast<size_t>(t) + static_cast<size_t>(f)] != -1) continue;
+      // Every constrained face once: the boundary, and the interfaces and
+      // listed triangles inside, taken from the side with the smaller region
+      // ref (then the smaller tet id) and facing away from it.
+      const int32_t nb = m.adj[4 * static_cast<size_t>(t) + static_cast<size_t>(f)];
+      if (nb != -1) {
+        if (!masks || !(m.face_mask[static_cast<size_t>(t)] >> f & 1)) continue;
+        const int32_t u = nb >> 2;
+        if (region(u) < region(t) || (region(u) == region(t) && u < t)) continue;
+      }
       const int32_t* tv = m.tet(t);
       Tri v{tv[kFaceVertex[f][0]], tv[kFaceVertex[f][1]], tv[kFaceVertex[f][2]]};
       // Outward: the opposite vertex lies behind the face (display only, so
@@ -111,7 +121,7 @@ ViewSurface view_surface(const TetMesh& m, size_t budget) {
       const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
       const double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
       if (n[0] * (d[0] - a[0]) + n[1] * (d[1] - a[1]) + n[2] * (d[2] - a[2]) > 0) std::swap(v[1], v[2]);
-      int32_t ref = m.tet_ref.empty() ? 0 : m.tet_ref[static_cast<size_t>(t)];
+      int32_t ref = region(t);
       if (s.by_patch) {
         const Tri key = sorted(v);
         auto it = std::lower_bound(listed.begin(), listed.end(), std::make_pair(key, std::numeric_limits<int32_t>::min()));

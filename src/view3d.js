@@ -172,7 +172,7 @@ async function main() {
     geo.setAttribute('color', new THREE.BufferAttribute(new Float32Array(s.n * 36), 3));
     geo.computeVertexNormals();
     s.mesh = new THREE.Mesh(geo, new THREE.MeshLambertMaterial({ vertexColors: true, flatShading: true,
-      side: THREE.DoubleSide, polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1 }));
+      side: THREE.DoubleSide, polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1, clippingPlanes: [clip] }));
     s.mesh.renderOrder = 1;
     s.group.add(s.mesh);
     if (!s.diagnosed) continue;
@@ -190,11 +190,11 @@ async function main() {
     const lgeo = new THREE.BufferGeometry();
     lgeo.setAttribute('position', new THREE.Float32BufferAttribute(lp, 3));
     lgeo.setAttribute('color', new THREE.Float32BufferAttribute(lc, 3));
-    s.locked = new THREE.LineSegments(lgeo, new THREE.LineBasicMaterial({ vertexColors: true }));
+    s.locked = new THREE.LineSegments(lgeo, new THREE.LineBasicMaterial({ vertexColors: true, clippingPlanes: [clip] }));
     s.locked.renderOrder = 3;
     const cgeo = new THREE.BufferGeometry();
     cgeo.setAttribute('position', new THREE.Float32BufferAttribute(cp, 3));
-    s.caps = new THREE.Mesh(cgeo, new THREE.MeshBasicMaterial({ color: CAP_COLOUR, side: THREE.DoubleSide }));
+    s.caps = new THREE.Mesh(cgeo, new THREE.MeshBasicMaterial({ color: CAP_COLOUR, side: THREE.DoubleSide, clippingPlanes: [clip] }));
     s.group.add(s.locked, s.caps);
     s.lockedCount = [0, 0, 0, 0];
     for (let t = 0; t < s.n; ++t) s.lockedCount[s.cls[t]]++;
@@ -260,7 +260,7 @@ async function main() {
   controls.screenSpacePanning = true;
   const bb = sgeo.boundingBox;
   const centre = bb.getCenter(new THREE.Vector3());
-  camera.position.copy(centre).add(new THREE.Vector3(0.8, -1.1, 0.9).normalize().multiplyScalar(diag * 1.5));
+  camera.position.copy(centre).add(new THREE.Vector3(0.8, -1.1, 0.9).normalize().multiplyScalar(diag * 1.3));
   controls.target.copy(centre);
   controls.update();
   let pending = false;
@@ -357,7 +357,8 @@ async function main() {
     const ndc = new THREE.Vector2(((e.clientX - r.left) / r.width) * 2 - 1, -((e.clientY - r.top) / r.height) * 2 + 1);
     pick.setFromCamera(ndc, camera);
     const s = current();
-    const hit = state.tets ? pick.intersectObject(s.mesh, false)[0] : null;
+    // The nearest hit the plane does not cut away (the ray ignores it).
+    const hit = state.tets ? pick.intersectObject(s.mesh, false).find((h) => !(clip.distanceToPoint(h.point) < 0)) : null;
     select(hit ? Math.floor(hit.faceIndex / 4) : -1);
   });
 
@@ -415,7 +416,7 @@ async function main() {
     '<label><input type="checkbox" id="tv-show-caps" checked> capping triangles</label> ' +
     '<label><input type="checkbox" id="tv-show-surface" checked> surface</label></div>' +
     '<div class="tv-row"><label>surface opacity <input type="range" id="tv-opacity" min="0" max="100" value="35"></label></div>' +
-    '<div class="tv-row"><label>clip the surface <select id="tv-clip">' + opt(-1, 'off', true) + opt(0, 'x') + opt(1, 'y') +
+    '<div class="tv-row"><label>cut away beyond a plane across <select id="tv-clip">' + opt(-1, 'off', true) + opt(0, 'x') + opt(1, 'y') +
     opt(2, 'z') + '</select></label> <input type="range" id="tv-clip-at" min="0" max="1000" value="500" disabled></div>' +
     '<div class="tv-row note">drag: rotate · right-drag or shift-drag: pan · wheel: zoom · click: pick a tet</div>';
   function syncControls() {

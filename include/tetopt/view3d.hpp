@@ -1,7 +1,7 @@
 // tetopt/view3d.hpp — what the HTML report's 3D view draws, in compact form.
 //
 // The view (html_report.hpp, drawn with three.js in the page) shows where the
-// bad tets are: the boundary surface, the tets below the threshold (before
+// bad tets are: the boundary surface (with the region interfaces), the tets below the threshold (before
 // and after a run), the tets the diagnosis calls locked and the constrained
 // triangles that cap their quality (diagnose.hpp).  Only these go into the
 // page, never the whole volume: a 20M-tet mesh has about 0.4M boundary
@@ -34,8 +34,10 @@
 
 namespace tetopt {
 
-/// The boundary surface: faces with no neighbour tet, outward, grouped by
-/// the ref that colours them.
+/// The constrained surface: the boundary faces (one tet), outward, and the
+/// constrained faces inside (region interfaces, listed triangles), each once,
+/// facing away from the side with the smaller region ref; grouped by the ref
+/// that colours them.
 struct ViewSurface {
   double origin[3] = {0, 0, 0};   ///< view_origin(m); xyz are relative to it
   std::vector<float> xyz;         ///< n x 3 vertex positions
@@ -43,7 +45,7 @@ struct ViewSurface {
   /// Groups of consecutive triangles with one ref: ref, first triangle, count.
   std::vector<int32_t> group_ref, group_start, group_count;
   bool by_patch = false;          ///< refs are the listed triangles' (patch) refs; else the tets' region refs
-  int64_t triangles_full = 0;     ///< boundary triangles of the mesh
+  int64_t triangles_full = 0;     ///< constrained triangles of the mesh
   bool decimated = false;         ///< tris has fewer triangles than the mesh (display only)
   double bbox_diagonal = 0;
 };
@@ -52,10 +54,11 @@ struct ViewSurface {
 /// the same before and after a run, which keeps the boundary).
 void view_origin(const TetMesh& m, double origin[3]);
 
-/// The boundary surface of m (requires m's topology; without it, empty).  A face takes the ref
-/// of the listed triangle with its vertices when the file lists triangles
-/// (the patch), otherwise its tet's region ref.  More than `budget`
-/// triangles: decimated for display (see above).
+/// The constrained surface of m (requires m's topology; without it,
+/// empty).  A face takes the ref of the listed triangle with its vertices
+/// when the file lists triangles (the patch), otherwise the region ref of the
+/// tet it is taken from.  More than `budget` triangles: decimated for
+/// display (see above).
 ViewSurface view_surface(const TetMesh& m, size_t budget = 300000);
 
 /// A set of poor tets, worst alpha first.

@@ -78,14 +78,20 @@ TEST(View3d, SurfaceGroupsByRegionWithoutListedTriangles) {
   const TetMesh m = box(4, 0.0, 2, /*listed_tris=*/false);
   const ViewSurface s = view_surface(m);
   EXPECT_FALSE(s.by_patch);
+  // The boundary and, once, the interface x = 2 between the regions.
+  EXPECT_EQ(s.triangles_full, 6 * 4 * 4 * 2 + 4 * 4 * 2);
   ASSERT_EQ(s.group_ref.size(), 2u);
-  // Region 1 is x < 2: its triangles are those whose centroid has x < 2.
-  int64_t left = 0;
+  // Region 1 is x < 2: its boundary triangles and the interface (taken from
+  // the smaller ref) are those whose centroid has x <= 2; every triangle of
+  // region 2 has a corner with x > 2.
+  int64_t left = 0, interface = 0;
   for (size_t t = 0; t < s.tris.size(); t += 3) {
-    double x = 0;
-    for (int i = 0; i < 3; ++i) x += s.xyz[3 * static_cast<size_t>(s.tris[t + i])] + s.origin[0];
-    left += x / 3 < 2;
+    double x[3];
+    for (int i = 0; i < 3; ++i) x[i] = s.xyz[3 * static_cast<size_t>(s.tris[t + i])] + s.origin[0];
+    left += (x[0] + x[1] + x[2]) / 3 <= 2 + 1e-9;
+    interface += std::fabs(x[0] - 2) < 1e-9 && std::fabs(x[1] - 2) < 1e-9 && std::fabs(x[2] - 2) < 1e-9;
   }
+  EXPECT_EQ(interface, 4 * 4 * 2);
   EXPECT_EQ(s.group_ref[0], 1);
   EXPECT_EQ(s.group_ref[1], 2);
   EXPECT_EQ(s.group_start[0], 0);
@@ -193,7 +199,7 @@ TEST(View3d, ReportCarriesTheViewAndClickableRows) {
   EXPECT_NE(page.find("<script type=\"application/json\" id=\"tv-data\">"), std::string::npos);
   EXPECT_NE(page.find("<script type=\"text/plain\" id=\"tv-three-core\">"), std::string::npos);
   EXPECT_NE(page.find("<script type=\"module\">"), std::string::npos);
-  EXPECT_NE(page.find("The view draws all " + std::to_string(6 * 5 * 5 * 2) + " boundary triangles"), std::string::npos);
+  EXPECT_NE(page.find("The view draws all " + std::to_string(6 * 5 * 5 * 2) + " constrained triangles"), std::string::npos);
   // A budget below the boundary's size: the page says it decimated.
   in.view_surface_budget = 100;
   EXPECT_NE(html_report(in).find("id=\"tv-decimated\""), std::string::npos);
