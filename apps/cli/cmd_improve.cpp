@@ -75,7 +75,7 @@ static const char* kImproveHelp =
     "                       of alpha and dihedral angles, statistics, time per phase,\n"
     "                       operation counts, diagnosis, the boundary verdict, a 3D\n"
     "                       view of the poor tets before and after (docs/report.md)\n"
-    "  --msh-version V      22 or 41 for .msh output    --binary  binary .msh/.vtk\n"
+    "  --msh-version V      22 or 41 (Gmsh), fluent     --binary  binary .msh/.vtk/polyMesh\n"
     "  --meshb-version V    2, 3 (default) or 4 for .meshb output\n"
     "  --allow-insert       (mode best only) may insert new free vertices inside the\n"
     "                       volume; existing vertices keep their ids.  Off by default\n"

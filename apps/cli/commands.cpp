@@ -278,7 +278,7 @@ int cmd_quality(const std::vector<std::string>& args) {
 }
 
 static const char* kConvertHelp =
-    "usage: tetopt convert IN OUT [--msh-version 22|41] [--binary] [--meshb-version 2|3|4]\n"
+    "usage: tetopt convert IN OUT [--msh-version 22|41|fluent] [--binary] [--meshb-version 2|3|4]\n"
     "                             [--threads K]\n"
     "\n"
     "Converts a tetrahedral mesh between formats, chosen by extension:\n"
@@ -293,7 +293,8 @@ static const char* kConvertHelp =
     "failure leaves no half file.\n"
     "\n"
     "options:\n"
-    "  --msh-version V   22 or 41 for .msh output (default 41)\n"
+    "  --msh-version V   22 or 41 for Gmsh .msh output (default 41), fluent for a Fluent\n"
+    "                    mesh (the default when IN is one)\n"
     "  --binary          binary .msh / .vtk output\n"
     "  --meshb-version V GMF version of .meshb output: 2, 3 (default) or 4\n"
     "  --threads K       worker threads for reading and writing (default 0 = all\n"
@@ -314,12 +315,16 @@ int cmd_convert(const std::vector<std::string>& args) {
       if (!has_value(args, i, a) || !parse_int(a, args[++i], v)) return kExitUsage;
       if (v < 0 || v > 1024) { std::fputs("tetopt convert: --threads must be in 0..1024\n", stderr); return kExitUsage; }
       wo.threads = static_cast<int>(v);
+    } else if (a == "--msh-version" && i + 1 < args.size() && args[i + 1] == "fluent") {
+      ++i;
+      wo.msh = WriteOptions::Msh::Fluent;  // a Fluent mesh (issue 28)
     } else if (a == "--msh-version" || a == "--meshb-version") {
       if (!has_value(args, i, a) || !parse_int(a, args[i + 1], v)) return kExitUsage;
       ++i;
       if (a == "--msh-version") {
-        if (v != 22 && v != 41) { std::fputs("tetopt convert: --msh-version is 22 or 41\n", stderr); return kExitUsage; }
+        if (v != 22 && v != 41) { std::fputs("tetopt convert: --msh-version is 22, 41 or fluent\n", stderr); return kExitUsage; }
         wo.msh_version = static_cast<int>(v);
+        wo.msh = WriteOptions::Msh::Gmsh;
       } else {
         if (v < 2 || v > 4) { std::fputs("tetopt convert: --meshb-version is 2, 3 or 4\n", stderr); return kExitUsage; }
         wo.meditb_version = static_cast<int>(v);

@@ -188,9 +188,15 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
       if (n < 0 || n > 1024) return bad("--threads must be in 0..1024");
       a.opt.threads = static_cast<int>(n);
     } else if (o == "--msh-version") {
-      if (!integer(n)) return R::Error;
-      if (n != 22 && n != 41) return bad("--msh-version is 22 or 41");
-      a.wo.msh_version = static_cast<int>(n);
+      if (i + 1 < args.size() && args[i + 1] == "fluent") {  // a Fluent mesh (issue 28)
+        ++i;
+        a.wo.msh = tetopt::WriteOptions::Msh::Fluent;
+      } else {
+        if (!integer(n)) return R::Error;
+        if (n != 22 && n != 41) return bad("--msh-version is 22, 41 or fluent");
+        a.wo.msh_version = static_cast<int>(n);
+        a.wo.msh = tetopt::WriteOptions::Msh::Gmsh;
+      }
     } else if (o == "--meshb-version") {
       if (!integer(n)) return R::Error;
       if (n < 2 || n > 4) return bad("--meshb-version is 2, 3 or 4");

@@ -107,6 +107,7 @@ Format format_from_path(const std::string& path) {
   if (ends_with(path, ".vtk")) return Format::Vtk;
   if (ends_with(path, ".vtu")) return Format::Vtu;
   if (ends_with(path, ".node") || ends_with(path, ".ele")) return Format::TetGen;
+  if (ends_with(path, ".inp")) return Format::Abaqus;
   return Format::Unknown;
 }
 
@@ -575,6 +576,7 @@ namespace {
 Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   m = TetMesh{};
   const Format f = format_from_path(path);
+  Format actual = f;  // a .msh may turn out to be Fluent's
   // The name every message gives: control characters escaped, so that a
   // message stays one line for the library's callers too (Python).
   const std::string name = shown(path);
@@ -583,7 +585,7 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+                           name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp, or a folder ending in polyMesh)");
     case Format::OpenFoam: {
       const std::string dir = openfoam_dir(path);
       if (dir.empty() || !is_dir(dir)) return Status::error(ErrorCode::Io, name + ": no such folder");
@@ -638,13 +640,17 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
       }
       if (f == Format::Medit) s = parse_medit(bytes, name, m, threads);
       else if (f == Format::MeditBinary) s = parse_meditb(bytes, name, m);
-      else if (f == Format::Gmsh) s = parse_gmsh(bytes, name, m);
+      else if (f == Format::Gmsh && detail::looks_like_fluent(bytes)) {
+        s = parse_fluent(bytes, name, m);
+        actual = Format::Fluent;
+      } else if (f == Format::Gmsh) s = parse_gmsh(bytes, name, m);
+      else if (f == Format::Abaqus) s = parse_abaqus(bytes, name, m);
       else if (f == Format::Vtk) s = parse_vtk(bytes, name, m);
       else s = parse_vtu(bytes, name, m);
     }
   }
   if (!s) return s;
-  m.source_format = static_cast<int>(f);
+  m.source_format = static_cast<int>(actual);
   if (m.vert_ref.empty()) m.vert_ref.assign(m.nv(), 0);
   if (m.tet_ref.empty()) m.tet_ref.assign(m.nt(), 0);
   if (m.tri_ref.size() < static_cast<size_t>(m.ntri())) m.tri_ref.resize(m.ntri(), 0);
@@ -656,20 +662,26 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
 }
 }  // namespace
 
+bool msh_is_fluent(const TetMesh& m, const WriteOptions& opt) {
+  if (opt.msh == WriteOptions::Msh::Auto) return m.source_format == static_cast<int>(Format::Fluent);
+  return opt.msh == WriteOptions::Msh::Fluent;
+}
+
 std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const WriteOptions& opt) {
+  if (f == Format::Gmsh && msh_is_fluent(m, opt)) f = Format::Fluent;
   std::vector<std::string> out;
   auto add = [&](int64_t n, const std::string& what, const char* unit = "") {
     if (n > 0) out.push_back(what + " (" + std::to_string(n) + unit + ")");
   };
   const bool medit = f == Format::Medit || f == Format::MeditBinary, gmsh = f == Format::Gmsh,
              vtk = f == Format::Vtk || f == Format::Vtu, tetgen = f == Format::TetGen,
-             foam = f == Format::OpenFoam;
+             foam = f == Format::OpenFoam, fluent = f == Format::Fluent, abaqus = f == Format::Abaqus;
   // Formats that name groups themselves (patches, zones): the names of the
   // groups they write are kept; their writer's own list says what is not.
-  const bool names_kept = gmsh || foam;
+  const bool names_kept = gmsh || foam || fluent || abaqus;
   if (gmsh || vtk) add(std::count_if(m.vert_ref.begin(), m.vert_ref.end(), [](int32_t r) { return r != 0; }),
                        "vertex refs", " nonzero");
-  if (tetgen || foam) {
+  if (tetgen || foam || fluent || abaqus) {
     add(static_cast<int64_t>(m.edges.size() / 2), "listed edges");
     add(static_cast<int64_t>(m.corners.size()), "corners");
   }
@@ -710,6 +722,10 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
         "point data names with blanks (or empty) as they are", "; written with '_' in their place, 'field' if empty");
   if (foam)
     for (std::string& x : detail::openfoam_dropped(m)) out.push_back(std::move(x));
+  if (fluent)
+    for (std::string& x : detail::fluent_dropped(m)) out.push_back(std::move(x));
+  if (abaqus)
+    for (std::string& x : detail::abaqus_dropped(m)) out.push_back(std::move(x));
   if (!vtk && !m.point_fields.empty()) {
     std::string names;
     for (const TetMesh::PointField& p : m.point_fields) names += (names.empty() ? "" : ", ") + p.name;
@@ -726,7 +742,7 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           shown(path) + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+                           shown(path) + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp, or a folder ending in polyMesh)");
     case Format::TetGen: {
       std::string ele, face;
       if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, shown(path) + ": " + s.message);
@@ -746,7 +762,11 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
     }
     case Format::Medit: return write_medit_streamed(path, m, opt.threads);
     case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;
-    case Format::Gmsh: s = format_gmsh(m, out, opt.msh_version, opt.binary); break;
+    case Format::Gmsh:
+      s = msh_is_fluent(m, opt) ? format_fluent(m, out, opt.binary) : format_gmsh(m, out, opt.msh_version, opt.binary);
+      break;
+    case Format::Fluent: s = format_fluent(m, out, opt.binary); break;
+    case Format::Abaqus: s = format_abaqus(m, out); break;
     case Format::Vtk: s = format_vtk(m, out, opt.binary); break;
     case Format::Vtu: s = format_vtu(m, out); break;
   }
