@@ -9,7 +9,7 @@ TETOPT   := $(BUILD)/tetopt
 
 # Debian 12 packages tetopt needs to build, test, demo and benchmark.
 DEB_PKGS := build-essential cmake libcgal-dev libgmp-dev libmpfr-dev libboost-dev \
-            libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen openfoam \
+            libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen openfoam calculix-ccx \
             python3 python3-numpy python3-scipy python3-meshio python3-pytest python3-gmsh \
             python3-dev pybind11-dev libtbb-dev clang libclang-rt-14-dev chromium libopenmpi-dev openmpi-bin libmetis-dev \
             nodejs
