@@ -732,6 +732,9 @@ Status make_plan(const TetMesh& m, FPlan& plan) {
       }
     }
     z.type = a && !a->fluent_type.empty() ? a->fluent_type : (any_internal ? "interior" : "wall");
+    // an OpenFOAM patch's type where Fluent has the same one
+    if (a && a->fluent_type.empty() && !any_internal && (a->foam_type == "symmetryPlane" || a->foam_type == "symmetry"))
+      z.type = "symmetry";
     // An interior zone is listed back only where it separates two cell
     // zones; one with a listed face inside a cell zone is written as a wall.
     if (z.type == "interior" && inside_one) z.type = "wall";

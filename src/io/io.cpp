@@ -720,6 +720,23 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
                                });
                       }),
         "point data names with blanks (or empty) as they are", "; written with '_' in their place, 'field' if empty");
+  // What the attachment says that only its own format writes (OpenFOAM
+  // "wall" and "symmetryPlane" become Fluent "wall" / "symmetry" and back).
+  if (!foam)
+    add(std::count_if(m.attachment.groups.begin(), m.attachment.groups.end(),
+                      [&](const GroupAttachment& g) {
+                        const bool mapped = fluent && (g.foam_type == "wall" || g.foam_type == "symmetryPlane" ||
+                                                       g.foam_type == "symmetry");
+                        return !g.foam_entries.empty() || (!g.foam_type.empty() && g.foam_type != "patch" && !mapped);
+                      }),
+        "OpenFOAM patch types and entries", " patches");
+  if (!fluent)
+    add(std::count_if(m.attachment.groups.begin(), m.attachment.groups.end(),
+                      [&](const GroupAttachment& g) {
+                        const bool kept = foam && (g.fluent_type == "wall" || g.fluent_type == "symmetry");
+                        return !kept && !g.fluent_type.empty() && g.fluent_type != "interior" && g.fluent_type != "fluid";
+                      }),
+        "Fluent zone types", " zones");
   if (foam)
     for (std::string& x : detail::openfoam_dropped(m)) out.push_back(std::move(x));
   if (fluent)

@@ -884,6 +884,9 @@ Status make_plan(const TetMesh& m, Plan& plan) {
       if (a && a->foam_kind == "patch") {
         o.type = a->foam_type;
         o.entries = a->foam_entries;
+      } else if (a && (a->fluent_type == "wall" || a->fluent_type == "symmetry")) {
+        // a Fluent zone's type where OpenFOAM has the same one
+        o.type = a->fluent_type == "wall" ? "wall" : "symmetryPlane";
       }
       o.has_ref_entry = o.ref != static_cast<int32_t>(i + 1);
     } else {

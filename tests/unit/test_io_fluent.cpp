@@ -252,3 +252,32 @@ TEST(FluentHostile, BinarySectionsAreRead) {
   s = read(b.substr(0, b.find("(3013") + 40));
   EXPECT_FALSE(s);
 }
+
+TEST(Fluent, ZoneTypesMapToOpenFoamAndWhatCannotIsSaid) {
+  TetMesh m = make_box_mesh({.nx = 1, .ny = 1, .nz = 1});
+  for (int32_t i = 0; i < m.ntri(); ++i) m.tri_ref[i] = 1 + i % 2;
+  m.attachment.get(2, 1).fluent_type = "wall";
+  m.attachment.get(2, 2).fluent_type = "velocity-inlet";
+  std::string files[8];
+  ASSERT_TRUE(format_openfoam(m, files, false));
+  EXPECT_NE(files[4].find("type            wall;"), std::string::npos) << files[4];
+  std::string lost;
+  for (const std::string& x : dropped_by_format(m, Format::OpenFoam)) lost += x + ";";
+  EXPECT_NE(lost.find("Fluent zone types (1 zones)"), std::string::npos) << lost;  // velocity-inlet only
+  EXPECT_EQ(lost.find("OpenFOAM"), std::string::npos) << lost;
+  // And back: an OpenFOAM wall with inGroups entries written as Fluent.
+  TetMesh f = make_box_mesh({.nx = 1, .ny = 1, .nz = 1});
+  f.tri_ref.assign(f.ntri(), 4);
+  f.attachment.get(2, 4).foam_kind = "patch";
+  f.attachment.get(2, 4).foam_type = "symmetryPlane";
+  std::string out;
+  ASSERT_TRUE(format_fluent(f, out, false));
+  EXPECT_NE(out.find("(39 (4 symmetry "), std::string::npos) << out.substr(out.rfind("(39"));
+  lost.clear();
+  for (const std::string& x : dropped_by_format(f, Format::Fluent)) lost += x + ";";
+  EXPECT_EQ(lost.find("OpenFOAM patch types"), std::string::npos) << lost;
+  f.attachment.get(2, 4).foam_entries = "inGroups List<word> 1 ( sym );";
+  lost.clear();
+  for (const std::string& x : dropped_by_format(f, Format::Gmsh)) lost += x + ";";
+  EXPECT_NE(lost.find("OpenFOAM patch types and entries (1 patches)"), std::string::npos) << lost;
+}
