@@ -94,8 +94,14 @@ try {
     const cells = await row.locator('td').allInnerTexts();
     await row.click();
     await page.waitForFunction(() => document.documentElement.getAttribute('data-view-flying') === '0', null, { timeout: 10000 });
-    await page.waitForTimeout(600);  // the smooth scroll that brings the view into sight
-    const box = await canvas.boundingBox();
+    // The smooth scroll that brings the view into sight: wait until it rests.
+    let box = await canvas.boundingBox();
+    for (let i = 0; i < 50; ++i) {
+      await page.waitForTimeout(100);
+      const b = await canvas.boundingBox();
+      if (b.x === box.x && b.y === box.y) break;
+      box = b;
+    }
     const p = await page.evaluate((i) => window.tetoptView.screenOf(i), id);
     const inside = p && p.x > box.x && p.x < box.x + box.width && p.y > box.y && p.y < box.y + box.height;
     check('clicking a table row flies the camera to its tet', !!inside && Math.hypot(p.x - (box.x + box.width / 2), p.y - (box.y + box.height / 2)) < 5,
