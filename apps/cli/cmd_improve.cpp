@@ -91,7 +91,9 @@ static const char* kImproveHelp =
     "                       Morton order of their centroids: faster (the passes walk\n"
     "                       neighbours in cache), a different, equally checked\n"
     "                       result; the report's tets_reordered says so\n"
-    "  --keep-order         keep IN's tet order (wins over --reorder-above)\n"
+    "  --keep-order         keep IN's tet order (wins over --reorder-above) and the\n"
+    "                       order improve leaves: without it the tets of each region\n"
+    "                       are put together (one Gmsh block per entity)\n"
     "  -q, --quiet          print nothing but errors    -v, --verbose  more detail\n"
     "  --                   ends the options: IN may start with '-'\n"
     "\n"
@@ -190,6 +192,9 @@ int cmd_improve(const std::vector<std::string>& args) {
   // when a report is asked for.
   MeasureStats measures_before;
   if (!report_path.empty()) measures_before = compute_measure_stats(m, opt.threads);
+  // IN's regions in IN's order, to put each one's tets together again after
+  // improve (issue 28); --keep-order keeps the order improve leaves.
+  const std::vector<RegionKey> regions = a.keep_order ? std::vector<RegionKey>{} : region_key_order(m, order.empty() ? nullptr : &order);
   ImproveReport rep;
   Status s = improve(m, opt, rep, log, &g_interrupted);
   if (tty) std::fputs("\033[K", stderr);
@@ -204,6 +209,20 @@ int cmd_improve(const std::vector<std::string>& args) {
   if (g_interrupted) {
     std::fputs("tetopt: interrupted; nothing written\n", stderr);
     return kExitInterrupted;
+  }
+  // The tets of one region together (one Gmsh block per entity, one Fluent
+  // cell zone), each region's in the order improve left them.
+  if (regions.size() > 1) {
+    std::vector<int32_t> new_id;
+    if (group_tets_by_region(m, regions, &new_id)) {
+      if (rep.after.worst_tet >= 0 && rep.after.worst_tet < static_cast<int32_t>(new_id.size()))
+        rep.after.worst_tet = new_id[static_cast<size_t>(rep.after.worst_tet)];
+      s = build_topology(m, opt.threads);
+      if (!s) {
+        std::fprintf(stderr, "tetopt: %s: %s\n", shown(in).c_str(), shown(s.message).c_str());
+        return kExitInvariant;
+      }
+    }
   }
   // The input's worst tet by its number in IN.
   if (!order.empty() && rep.before.worst_tet >= 0 && rep.before.worst_tet < static_cast<int32_t>(order.size()))

@@ -36,6 +36,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tetopt/attachment.hpp"
@@ -204,6 +205,23 @@ Status refresh_topology(TetMesh& m, int32_t first_new, int threads = 1);
 /// of the passes does.  Same permutation for every thread count.  order
 /// (optional): order[new id] = old id.
 void sort_tets_spatially(TetMesh& m, int threads = 1, std::vector<int32_t>* order = nullptr);
+
+/// A region as the writers store it: (tet_ref, Gmsh entity tag or 0).
+using RegionKey = std::pair<int32_t, int32_t>;
+
+/// The regions of m in the order their first tets appear; with `order`
+/// (order[id] = the tet's number in the file, as sort_tets_spatially gives
+/// it) in the file's order.  For group_tets_by_region after improve.
+std::vector<RegionKey> region_key_order(const TetMesh& m, const std::vector<int32_t>* order = nullptr);
+
+/// Puts the tets of one region together (issue 28: a Gmsh 4.1 file then has
+/// one element block per entity, and a Fluent file needs it anyway): a
+/// stable sort by the rank of each tet's region in `keys` (regions not in
+/// it after, in order of appearance), so the tets of one region keep their
+/// order.  Returns whether any tet moved; the topology arrays are then
+/// cleared (call build_topology after).  new_id (optional): new_id[old id]
+/// = new id.  The same permutation for every thread count.
+bool group_tets_by_region(TetMesh& m, const std::vector<RegionKey>& keys, std::vector<int32_t>* new_id = nullptr);
 
 /// How far apart consecutive tets lie: the mean distance between the
 /// centroids of tets t and t+1, over the mean length of the edge between

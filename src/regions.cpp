@@ -1,0 +1,80 @@
+// group_tets_by_region and region_key_order (mesh.hpp): the tets of one
+// region together, for writers that store a region as one block (issue 28:
+// `improve` left the impeller's regions interleaved, so the Gmsh 4.1 writer
+// wrote 1,012 element blocks and meshio returned 1,012 tetra blocks).
+#include <algorithm>
+#include <map>
+#include <utility>
+#include <vector>
+
+#include "tetopt/mesh.hpp"
+
+namespace tetopt {
+
+namespace {
+RegionKey key_of(const TetMesh& m, int32_t t, bool has_entity) {
+  return {m.tet_ref[static_cast<size_t>(t)], has_entity ? m.tet_entity[static_cast<size_t>(t)] : 0};
+}
+}  // namespace
+
+std::vector<RegionKey> region_key_order(const TetMesh& m, const std::vector<int32_t>* order) {
+  const int32_t nt = m.nt();
+  const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
+  // The smallest input number of a tet of each key: its first appearance.
+  std::map<RegionKey, int32_t> first;
+  for (int32_t t = 0; t < nt; ++t) {
+    const int32_t in = order && static_cast<size_t>(t) < order->size() ? (*order)[static_cast<size_t>(t)] : t;
+    const auto [it, added] = first.emplace(key_of(m, t, has_entity), in);
+    if (!added) it->second = std::min(it->second, in);
+  }
+  std::vector<std::pair<int32_t, RegionKey>> by_first;
+  for (const auto& [k, in] : first) by_first.emplace_back(in, k);
+  std::sort(by_first.begin(), by_first.end());
+  std::vector<RegionKey> out;
+  for (const auto& p : by_first) out.push_back(p.second);
+  return out;
+}
+
+bool group_tets_by_region(TetMesh& m, const std::vector<RegionKey>& keys, std::vector<int32_t>* new_id) {
+  const int32_t nt = m.nt();
+  const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
+  std::map<RegionKey, int32_t> rank;
+  for (const RegionKey& k : keys) rank.emplace(k, static_cast<int32_t>(rank.size()));
+  // Keys the list does not hold go after it, in order of appearance.
+  std::vector<int32_t> r(static_cast<size_t>(nt));
+  for (int32_t t = 0; t < nt; ++t) {
+    const auto [it, added] = rank.emplace(key_of(m, t, has_entity), static_cast<int32_t>(rank.size()));
+    (void)added;
+    r[static_cast<size_t>(t)] = it->second;
+  }
+  std::vector<int32_t> perm(static_cast<size_t>(nt));  // perm[new] = old
+  for (int32_t t = 0; t < nt; ++t) perm[static_cast<size_t>(t)] = t;
+  std::stable_sort(perm.begin(), perm.end(), [&](int32_t a, int32_t b) { return r[static_cast<size_t>(a)] < r[static_cast<size_t>(b)]; });
+  bool moved = false;
+  for (int32_t i = 0; i < nt && !moved; ++i) moved = perm[static_cast<size_t>(i)] != i;
+  if (new_id) {
+    new_id->assign(static_cast<size_t>(nt), 0);
+    for (int32_t i = 0; i < nt; ++i) (*new_id)[static_cast<size_t>(perm[static_cast<size_t>(i)])] = i;
+  }
+  if (!moved) return false;
+  std::vector<int32_t> tets(m.tets.size()), ref(static_cast<size_t>(nt)), ent(has_entity ? static_cast<size_t>(nt) : 0);
+  for (int32_t i = 0; i < nt; ++i) {
+    const int32_t t = perm[static_cast<size_t>(i)];
+    std::copy(m.tet(t), m.tet(t) + 4, &tets[4 * static_cast<size_t>(i)]);
+    ref[static_cast<size_t>(i)] = m.tet_ref[static_cast<size_t>(t)];
+    if (has_entity) ent[static_cast<size_t>(i)] = m.tet_entity[static_cast<size_t>(t)];
+  }
+  m.tets = std::move(tets);
+  m.tet_ref = std::move(ref);
+  if (has_entity) m.tet_entity = std::move(ent);
+  // Whatever topology was built refers to the old tet numbers.
+  m.adj.clear();
+  m.vt_offsets.clear();
+  m.vt_tets.clear();
+  m.face_mask.clear();
+  m.tet_kind.clear();
+  m.topology_epoch++;
+  return true;
+}
+
+}  // namespace tetopt
