@@ -7,11 +7,14 @@
 #include <set>
 #include <string>
 
+#include "tetopt/conventions.hpp"
 #include "tetopt/diagnose.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/html_report.hpp"
 #include "tetopt/quality.hpp"
 #include "tetopt/view3d.hpp"
+
+#include "needle_box.hpp"
 
 using namespace tetopt;
 
@@ -177,6 +180,31 @@ TEST(View3d, DiagnosedSetFollowsTheDiagnosis) {
     EXPECT_EQ(v.cls[i], static_cast<uint8_t>(d.poor[i].cls));
     EXPECT_EQ(v.cap_face[i], d.poor[i].cls == TetClass::LockedByTriangle ? d.poor[i].face : -1);
   }
+}
+
+TEST(View3d, CappingTrianglesAreTheLockingFaces) {
+  // Needle triangles on the bottom face lock the tets standing on them.
+  TetMesh m = tetopt_test::needle_box(5, 3, 7);
+  ASSERT_TRUE(build_topology(m).ok());
+  const Diagnosis d = diagnose(m, {});
+  ASSERT_GT(d.count[static_cast<int>(TetClass::LockedByTriangle)], 0);
+  double origin[3];
+  view_origin(m, origin);
+  const ViewTets v = view_diagnosed_tets(m, d, d.poor.size(), origin);
+  int caps = 0;
+  for (size_t i = 0; i < v.ids.size(); ++i) {
+    if (v.cap_face[i] < 0) continue;
+    ++caps;
+    const int32_t t = v.ids[i];
+    const int f = v.cap_face[i];
+    // A constrained face of its tet, on the bottom (z = 0), whose best apex
+    // stays below the threshold, as the diagnosis says.
+    EXPECT_TRUE(m.face_mask[static_cast<size_t>(t)] >> f & 1);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(m.point(m.tet(t)[kFaceVertex[f][k]])[2], 0.0);
+    EXPECT_LT(v.best_alpha[i], d.threshold);
+    EXPECT_EQ(v.cls[i], static_cast<uint8_t>(TetClass::LockedByTriangle));
+  }
+  EXPECT_EQ(caps, d.count[static_cast<int>(TetClass::LockedByTriangle)]);
 }
 
 TEST(View3d, ReportCarriesTheViewAndClickableRows) {
