@@ -372,7 +372,7 @@ void set_json(std::ostringstream& o, const char* name, const std::string& label,
     << b64(t.dihedral_min) << "\",\"dihedral_max\":\"" << b64(t.dihedral_max) << "\",\"kind\":\"" << b64(t.kind) << "\"";
   if (!t.cls.empty() || t.ids.empty())
     o << ",\"cls\":\"" << b64(t.cls) << "\",\"best_alpha\":\"" << b64(t.best_alpha) << "\",\"cap_face\":\""
-      << b64(t.cap_face) << "\"";
+      << b64(t.cap_face) << "\",\"constrained_faces\":\"" << b64(t.constrained_faces) << "\"";
   o << "}";
 }
 
@@ -413,7 +413,10 @@ void view_scripts(std::ostringstream& o, const HtmlReportInput& in, const ViewSu
   const detail::View3dAssets& a = detail::view3d_assets();
   if (!a.built_in) return;
   o << "<script type=\"application/json\" id=\"tv-data\">{\"version\":1,\"threshold\":"
-    << json_number(in.diagnosis->threshold) << ",\"face_vertex\":[";
+    << json_number(in.diagnosis->threshold) << ",\"threshold_text\":\"" << f("%.3g", in.diagnosis->threshold)
+    << "\",\"class_names\":[";
+  for (int c = 0; c < 4; ++c) o << (c ? "," : "") << "\"" << tet_class_name(static_cast<TetClass>(c)) << "\"";
+  o << "],\"face_vertex\":[";
   for (int fi = 0; fi < 4; ++fi)
     o << (fi ? "," : "") << "[" << kFaceVertex[fi][0] << "," << kFaceVertex[fi][1] << "," << kFaceVertex[fi][2] << "]";
   o << "],\"surface\":{\"origin\":[" << json_number(surf.origin[0]) << "," << json_number(surf.origin[1]) << ","

@@ -278,6 +278,7 @@ ViewTets view_diagnosed_tets(const TetMesh& m, const Diagnosis& d, size_t max_te
     vt.cls.push_back(static_cast<uint8_t>(p.cls));
     vt.best_alpha.push_back(static_cast<float>(p.best_alpha));
     vt.cap_face.push_back(static_cast<int8_t>(p.cls == TetClass::LockedByTriangle ? p.face : -1));
+    vt.constrained_faces.push_back(static_cast<uint8_t>(p.constrained_faces));
   }
   return vt;
 }

@@ -71,8 +71,7 @@ const fmt = {
   },
 };
 
-const CLASS_NAMES = ['good', 'locked by its boundary triangle', 'locked by its constrained neighbours',
-  'improvable (not reached)'];
+let CLASS_NAMES = [];  // diagnose.cpp's tet_class_name(), from the data
 const CLASS_COLOURS = ['#9fb3c8', '#e12d39', '#f0b429', '#2680c2'];
 const PALETTE = ['#5b9bd5', '#70ad47', '#f2c38b', '#c9b1e0', '#f5a3a3', '#9ed9d6', '#e0d58f', '#b8c4d6',
   '#d9a7c7', '#a3c9a8', '#f0b7a1', '#9fb7f0'];
@@ -89,6 +88,7 @@ const stage = (name) => stages.push(name + ':' + performance.now().toFixed(0));
 async function main() {
   stage('start');
   const data = JSON.parse($('tv-data').textContent);
+  CLASS_NAMES = data.class_names;
   stage('json');
   const probe = document.createElement('canvas');
   if (!probe.getContext('webgl2') && !probe.getContext('webgl')) {
@@ -147,7 +147,7 @@ async function main() {
       alpha: f32(d.alpha), dmin: f32(d.dihedral_min), dmax: f32(d.dihedral_max), kind: u8(d.kind),
       diagnosed: !!d.cls, offset: d.offset };
     s.n = s.ids.length;
-    if (s.diagnosed) { s.cls = u8(d.cls); s.best = f32(d.best_alpha); s.cap = i8(d.cap_face); }
+    if (s.diagnosed) { s.cls = u8(d.cls); s.best = f32(d.best_alpha); s.cap = i8(d.cap_face); s.cfaces = u8(d.constrained_faces); }
     s.index = new Map();
     for (let i = 0; i < s.n; ++i) s.index.set(s.ids[i], i);
     return s;
@@ -315,13 +315,16 @@ async function main() {
     for (let i = 0; i < 4; ++i) { const p = P(s, t, i); for (let k = 0; k < 3; ++k) c[k] += p[k] / 4; }
     return new THREE.Vector3(c[0] + s.offset[0], c[1] + s.offset[1], c[2] + s.offset[2]);
   }
-  function rowHtml(s, t) {
+  function rowHtml(s, t, fromData = false) {
     // The row of the table (#worst) when the tet is listed there; else the
     // same columns from the view's data (centroid from its float32 corners).
-    const tr = s.diagnosed && document.querySelector('#worst tr[data-tet="' + s.ids[t] + '"]');
+    const tr = !fromData && s.diagnosed && document.querySelector('#worst tr[data-tet="' + s.ids[t] + '"]');
     if (tr) return tr.innerHTML;
     const c = centroid(s, t), o = data.surface.origin;
-    const best = s.diagnosed ? (Number.isNaN(s.best[t]) ? '–' : fmt.fixed(s.best[t], 4)) : '–';
+    // As the table: no searched face reaches below γ -> "≥ γ" when it has a
+    // constrained face, "–" when it has none.
+    const best = !s.diagnosed ? '–' : !Number.isNaN(s.best[t]) ? fmt.fixed(s.best[t], 4)
+      : s.cfaces[t] > 0 ? '≥ ' + data.threshold_text : '–';
     const cls = s.diagnosed ? '<td class="l c' + s.cls[t] + '">' + CLASS_NAMES[s.cls[t]] + '</td>'
       : '<td class="l">(diagnosed after the run only)</td>';
     return '<td>' + (s.ids[t] + 1) + '</td><td>' + fmt.fixed(s.alpha[t], 4) + '</td><td>' + fmt.fixed(s.dmin[t], 2) +
@@ -472,6 +475,15 @@ async function main() {
     sets: sets.map((s) => s.name),
     get set() { return sets[state.set].name; },
     shown: () => current().n,
+    // The panel's cells for tet `id` of the current set as built from the
+    // view's data (what a tet the table does not list shows).
+    rowFromData(id) {
+      const s = current(), t = s.index.get(id);
+      if (t === undefined) return null;
+      const tr = document.createElement('tr');
+      tr.innerHTML = rowHtml(s, t, true);
+      return [...tr.children].map((td) => td.textContent);
+    },
     screenOf(id) {
       const s = current(), t = s.index.get(id);
       if (t === undefined) return null;

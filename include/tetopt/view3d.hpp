@@ -72,6 +72,7 @@ struct ViewTets {
   std::vector<uint8_t> cls;          ///< k, TetClass; empty when not diagnosed
   std::vector<float> best_alpha;     ///< k, PoorTet::best_alpha (NaN: none); empty when not diagnosed
   std::vector<int8_t> cap_face;      ///< k, local face that caps a LockedByTriangle tet, else -1; empty when not diagnosed
+  std::vector<uint8_t> constrained_faces;  ///< k, PoorTet::constrained_faces; empty when not diagnosed
   int64_t below = 0;                 ///< tets below the threshold in the mesh (shown or not)
 };
 

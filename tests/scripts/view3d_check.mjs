@@ -118,6 +118,18 @@ try {
     check('clicking tet ' + (id + 1) + ' shows its row of the table', got && got.id === String(id) &&
       JSON.stringify(got.cells) === JSON.stringify(cells), got ? got.cells.join(' | ') : 'no row shown');
   }
+  if (opts.click) {
+    // A tet the table does not list shows a row built from the view's data:
+    // for every listed tet that row must match the table's (the centroid,
+    // from float32 corners, to 6 significant digits give or take one unit).
+    const rows = await page.evaluate(() => [...document.querySelectorAll('#worst tr[data-tet]')].map((tr) =>
+      ({ id: +tr.dataset.tet, cells: [...tr.querySelectorAll('td')].map((td) => td.textContent),
+        data: window.tetoptView.rowFromData(+tr.dataset.tet) })));
+    const bad = rows.filter((r) => !r.data || r.data.length !== r.cells.length || r.cells.some((c, i) =>
+      i < 7 ? c !== r.data[i] : Math.abs(+c - +r.data[i]) > 1.5e-5 * Math.max(1, Math.abs(+c))));
+    check(`the view's own rows match the table's (${rows.length} rows)`, rows.length > 0 && bad.length === 0,
+      bad.length ? JSON.stringify(bad[0]) : '');
+  }
   check('no console error', errors.length === 0, errors.join(' / ').slice(0, 500));
   check('no request outside the page', foreign.length === 0, foreign.join(' ').slice(0, 300));
 } finally {
