@@ -91,6 +91,10 @@ static const char* kImproveHelp =
     "                       Morton order of their centroids: faster (the passes walk\n"
     "                       neighbours in cache), a different, equally checked\n"
     "                       result; the report's tets_reordered says so\n"
+    "  --write-boundary     list the boundary and interface triangles IN does not list,\n"
+    "                       as groups boundary_REGION and interface_A_B with new refs\n"
+    "                       (for OpenFOAM patches / faceZones, Fluent zones, Abaqus\n"
+    "                       surfaces from a mesh without boundary triangles)\n"
     "  --keep-order         keep IN's tet order (wins over --reorder-above) and the\n"
     "                       order improve leaves: without it the tets of each region\n"
     "                       are put together (one Gmsh block per entity)\n"
@@ -140,6 +144,10 @@ int cmd_improve(const std::vector<std::string>& args) {
   TetMesh m;
   std::vector<int32_t> order;  // order[id] = id in IN, when the tets were put in Morton order
   if (!load_mesh(in, m, quiet, opt.threads, &order, a.keep_order ? -1 : a.reorder_above)) return kExitInput;
+  if (a.write_boundary && add_boundary_triangles(m) > 0) {
+    const Status s0 = build_topology(m, opt.threads);  // the new triangles are constrained faces already; classify lists them
+    if (!s0) { std::fprintf(stderr, "tetopt: %s: %s\n", shown(in).c_str(), shown(s0.message).c_str()); return kExitInput; }
+  }
   if (verbose && !order.empty())
     std::fprintf(stderr, "tets put in Morton order of their centroids (IN's order is scattered; --keep-order keeps it)\n");
   // What improve's caches and passes add to the heap: 47-135 bytes per tet

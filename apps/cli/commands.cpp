@@ -279,6 +279,7 @@ int cmd_quality(const std::vector<std::string>& args) {
 
 static const char* kConvertHelp =
     "usage: tetopt convert IN OUT [--msh-version 22|41|fluent] [--binary] [--meshb-version 2|3|4]\n"
+    "                             [--write-boundary]\n"
     "                             [--threads K]\n"
     "\n"
     "Converts a tetrahedral mesh between formats, chosen by extension:\n"
@@ -293,6 +294,8 @@ static const char* kConvertHelp =
     "failure leaves no half file.\n"
     "\n"
     "options:\n"
+    "  --write-boundary  list the boundary and interface triangles IN does not list, as\n"
+    "                    groups boundary_REGION and interface_A_B with new refs\n"
     "  --msh-version V   22 or 41 for Gmsh .msh output (default 41), fluent for a Fluent\n"
     "                    mesh (the default when IN is one)\n"
     "  --binary          binary .msh / .vtk output\n"
@@ -305,12 +308,14 @@ static const char* kConvertHelp =
 int cmd_convert(const std::vector<std::string>& args) {
   std::vector<std::string> pos;
   WriteOptions wo;
+  bool write_boundary = false;
   wo.threads = 0;  // all cores: the same bytes for any count
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     long long v = 0;
     if (a == "-h" || a == "--help") { std::fputs(kConvertHelp, stdout); return kExitOk; }
     if (a == "--binary") wo.binary = true;
+    else if (a == "--write-boundary") write_boundary = true;
     else if (a == "--threads") {
       if (!has_value(args, i, a) || !parse_int(a, args[++i], v)) return kExitUsage;
       if (v < 0 || v > 1024) { std::fputs("tetopt convert: --threads must be in 0..1024\n", stderr); return kExitUsage; }
@@ -346,6 +351,7 @@ int cmd_convert(const std::vector<std::string>& args) {
   OrientationReport orient;
   Status s = read_input(pos[0], m, &orient, wo.threads);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitInput; }
+  if (write_boundary) add_boundary_triangles(m);
   warn_dropped(pos[1], m, wo, false);
   s = write_mesh(pos[1], m, wo);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }

@@ -142,6 +142,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "--binary") a.wo.binary = true;
     else if (o == "--no-check") a.opt.check_invariants = false;
     else if (o == "--keep-order") a.keep_order = true;
+    else if (o == "--write-boundary") a.write_boundary = true;
     else if (o == "--allow-insert") a.opt.allow_insert = true;
     else if (o == "--allow-remove") a.opt.allow_remove = true;
     else if (o == "--no-guard") a.opt.guard = false;

@@ -223,6 +223,19 @@ std::vector<RegionKey> region_key_order(const TetMesh& m, const std::vector<int3
 /// = new id.  The same permutation for every thread count.
 bool group_tets_by_region(TetMesh& m, const std::vector<RegionKey>& keys, std::vector<int32_t>* new_id = nullptr);
 
+/// Lists the boundary and interface triangles m does not list yet (issue 28,
+/// `--write-boundary`), so that a format that names groups of faces
+/// (OpenFOAM patches and faceZones through gmshToFoam, Fluent zones, Abaqus
+/// surfaces) gets real ones from a file that had none: the faces on one tet
+/// of region r become the group "boundary_R", the faces between regions
+/// a < b the group "interface_A_B" (R, A, B: the region's physical name, or
+/// its ref), each with a new tri ref above every ref and dim-2 physical
+/// tag in use, boundaries first, then interfaces, by ascending refs: the
+/// same refs and names for the same mesh whatever its tet order.  A face
+/// is listed as the face of its first tet (lowest id), facing out of it.
+/// Returns the number of triangles added.  Needs no topology.
+int32_t add_boundary_triangles(TetMesh& m);
+
 /// How far apart consecutive tets lie: the mean distance between the
 /// centroids of tets t and t+1, over the mean length of the edge between
 /// their first two vertices (0 for fewer than 2 tets).  About 1 for tets in

@@ -52,6 +52,14 @@ def rich(cli, tmp_path_factory):
     return tetopt.read(d / "r.mesh")
 
 
+# Formats whose region refs meshio carries as cell data both ways (others,
+# e.g. Abaqus element sets, come through meshio without them).
+REFS_KEPT = {"medit", "gmsh", "vtk", "vtu", "tetgen"}
+# meshio writes the triangles of these as elements tetopt's reader refuses
+# (Abaqus: R3D3; tetopt reads C3D4 tets): the round trip is of the tets only.
+TETS_ONLY = {"abaqus"}
+
+
 def same(a, b, refs=True, vertex_order=True):
     if vertex_order:
         assert np.array_equal(a.points, b.points), "points differ"
@@ -77,12 +85,12 @@ def test_round_trip_through_every_common_format(rich, tmp_path):
                 warnings.simplefilter("ignore")
                 tetopt.write(p, rich, **kw)
             back = tetopt.from_meshio(meshio.read(p, file_format=ft))
-            same(rich, back)
+            same(rich, back, refs=ft in REFS_KEPT)
             tried += 1
         # meshio writes, tetopt reads.
         for kw in MESHIO_VARIANTS.get(ft, [dict(file_format=ft)]):
             p = tmp_path / f"m_{ft}_{len(kw)}_{tried}{ext}"
-            mm = tetopt.to_meshio(rich)
+            mm = tetopt.to_meshio(rich.points, rich.tets, rich.refs) if ft in TETS_ONLY else tetopt.to_meshio(rich)
             if ft == "tetgen":  # meshio's TetGen writer takes 1-column point data only
                 del mm.point_data["gmsh:dim_tags"]
             meshio.write(p, mm, **kw)
@@ -92,7 +100,7 @@ def test_round_trip_through_every_common_format(rich, tmp_path):
             # meshio 5.0's Gmsh 4.1 writer orders the nodes by entity and
             # gives every volume entity the physical tag of the first one.
             gmsh41 = kw.get("file_format") == "gmsh"
-            same(rich, back, refs=not gmsh41, vertex_order=not gmsh41)
+            same(rich, back, refs=ft in REFS_KEPT and not gmsh41, vertex_order=not gmsh41)
             tried += 1
     print(f"{tried} round trips through {sorted(pairs)}")
 

@@ -138,4 +138,23 @@ check "the Gmsh names are the patch and cellZone names" \
 "$T" convert "$G/constant/polyMesh" "$W/back.msh" 2> /dev/null
 check "polyMesh -> .msh keeps the physical names and the refs" \
   '$PY "$W/names.py" "$W/box.msh" "$W/back.msh"'
+
+# --write-boundary: a mesh that lists no triangle (here a generated
+# two-region box with its Triangles section taken out) gets its boundary and
+# interface as named groups, so gmshToFoam makes a patch per region's
+# boundary and a faceZone for the interface (without it: one defaultFaces
+# patch and no faceZone, as the issue found).
+"$T" generate "$W/two.mesh" --cells 3 3 3 --regions 2 > /dev/null
+$PY - "$W/two.mesh" <<'PYEOF'
+import re, sys
+t = open(sys.argv[1]).read()
+open(sys.argv[1], "w").write(re.sub(r"\nTriangles\n\d+\n(?:[^A-Za-z\n][^\n]*\n)*", "\n", t))
+PYEOF
+check "the test mesh lists no triangle" '! grep -q "^Triangles" "$W/two.mesh"'
+B="$W/wb"; new_case "$B"
+"$T" convert "$W/two.mesh" "$W/wb.msh" --msh-version 22 --write-boundary 2> /dev/null
+foam gmshToFoam "$W/wb.msh" -case "$B" > "$B/g.log" 2>&1
+foam checkMesh -case "$B" > "$B/check.log" 2>&1; rc=$?
+check "--write-boundary -> gmshToFoam: patches boundary_1, boundary_2, faceZone interface_1_2, Mesh OK" \
+  '[ $rc -eq 0 ] && grep -q "^Mesh OK." "$B/check.log" && grep -q "boundary_1" "$B/constant/polyMesh/boundary" && grep -q "boundary_2" "$B/constant/polyMesh/boundary" && ! grep -q defaultFaces "$B/constant/polyMesh/boundary" && grep -q "^interface_1_2" "$B/constant/polyMesh/faceZones"'
 exit $fail
