@@ -2,7 +2,7 @@
 # `pip install .` and `pip wheel .` from the source tree (issue 29), offline,
 # into a fresh `python3 -m venv --system-site-packages` (numpy, meshio and
 # pytest from Debian), then the Python suite against the installed package.
-# The in-tree backend (python/build_backend) reuses this build tree
+# The in-tree backend (python/pep517) reuses this build tree
 # (TETOPT_BUILD_DIR): it brings it up to date and packs the wheel, so the
 # test costs a venv and a zip, not a build.  A build from scratch is what a
 # plain `pip install .` does (README, docs/python.md).
