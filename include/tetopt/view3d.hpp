@@ -1,11 +1,12 @@
 // tetopt/view3d.hpp — what the HTML report's 3D view draws, in compact form.
 //
 // The view (html_report.hpp, drawn with three.js in the page) shows where the
-// bad tets are: the boundary surface (with the region interfaces), the tets below the threshold (before
-// and after a run), the tets the diagnosis calls locked and the constrained
-// triangles that cap their quality (diagnose.hpp).  Only these go into the
-// page, never the whole volume: a 20M-tet mesh has about 0.4M boundary
-// triangles and typically a few thousand poor tets.
+// bad tets are: the boundary surface (with the region interfaces), the tets
+// below the threshold (before and after a run), the tets the diagnosis calls
+// locked and the constrained triangles that cap their quality (diagnose.hpp).  Only these go into the
+// page, never the whole volume (the 20.3M-tet box of docs/benchmarks.md has
+// 374k boundary triangles and 2.0M tets below alpha 0.3, of which the page
+// keeps the 50k worst).
 //
 // Sizes are bounded twice:
 //   - the surface is decimated for display only when it has more triangles
