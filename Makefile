@@ -9,9 +9,10 @@ TETOPT   := $(BUILD)/tetopt
 
 # Debian 12 packages tetopt needs to build, test, demo and benchmark.
 DEB_PKGS := build-essential cmake libcgal-dev libgmp-dev libmpfr-dev libboost-dev \
-            libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen \
+            libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen openfoam calculix-ccx \
             python3 python3-numpy python3-scipy python3-meshio python3-pytest python3-gmsh \
-            python3-dev pybind11-dev libtbb-dev clang libclang-rt-14-dev chromium libopenmpi-dev openmpi-bin libmetis-dev
+            python3-dev pybind11-dev libtbb-dev clang libclang-rt-14-dev chromium libopenmpi-dev openmpi-bin libmetis-dev \
+            nodejs python3-pip python3-venv pkgconf man-db
 
 .PHONY: all deps build demo test bench clean python fuzz test-sanitize
 
@@ -26,6 +27,15 @@ deps:
 	  if [ "$$(id -u)" = 0 ]; then SUDO=""; elif command -v sudo >/dev/null; then SUDO=sudo; \
 	  else echo "need root or sudo to install:$$missing" >&2; exit 1; fi; \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+	@# The HTML report's 3D view inlines three.js, and test_view3d.sh drives
+	@# chromium with playwright-core: both pinned in package-lock.json.  npm ci
+	@# runs only when node_modules is missing or older than the lockfile, so
+	@# later builds work offline.  (npm: its own Debian package when node is
+	@# Debian's; NodeSource's nodejs carries it.)
+	@if [ ! -f node_modules/.package-lock.json ] || [ package-lock.json -nt node_modules/.package-lock.json ]; then \
+	  command -v npm >/dev/null || { echo "make deps: npm not found (Debian: apt-get install npm)" >&2; exit 1; }; \
+	  echo "npm ci (three.js, playwright-core; package-lock.json)"; npm ci --no-audit --no-fund; \
 	fi
 
 $(BUILD)/CMakeCache.txt: | deps
@@ -45,6 +55,7 @@ bench: build
 
 python: build
 	@echo "python module: $(BUILD)/python (PYTHONPATH=$(BUILD)/python /usr/bin/python3 -c 'import tetopt')"
+	@echo "or install it: /usr/bin/python3 -m pip install . (docs/install.md)"
 
 # libFuzzer targets (clang), each run for FUZZ_SECONDS; corpus in fuzz/corpus/.
 FUZZ_SECONDS ?= 60

@@ -539,6 +539,233 @@ def tetgen(m, base=0, attrs=True, markers=True, face=True, comments=False, negat
     return out
 
 
+FOAM_SEP = b"\n@@FILE@@\n"   # as fuzz/openfoam_fuzz.cpp splits its input
+
+
+def polymesh(m, binary=False, msb=False, label=32, scalar=64, compact=None, zones=True, comments=False,
+             old_neighbour=False, uniform_flip=False):
+    """OpenFOAM polyMesh files (points, faces, owner, neighbour, boundary,
+    cellZones, faceZones, pointZones) joined by FOAM_SEP, written from the
+    OpenFOAM user guide (sections 4.1 and 5.1): faces out of their owner,
+    internal faces in upper-triangular order, then the patches (the box's
+    sides by ref); the interface (ref 7) a faceZone with a flipMap, the
+    regions cellZones, vertex 0 a pointZone.  compact: faceCompactList
+    (default in binary, as OpenFOAM writes it); old_neighbour: a neighbour
+    per face, -1 on the boundary (old files)."""
+    if compact is None:
+        compact = binary
+    fv = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))  # outward faces of a positive tet
+    faces = {}
+    for ti, t in enumerate(m.tets):
+        for f in fv:
+            tri = tuple(t[x] for x in f)
+            faces.setdefault(tuple(sorted(tri)), []).append((ti, tri))
+    internal = sorted((min(l[0][0], l[1][0]), max(l[0][0], l[1][0]), k) for k, l in faces.items() if len(l) == 2)
+    flist, owner, neigh = [], [], []
+    for o, n, k in internal:
+        tri = [tri for (ti, tri) in faces[k] if ti == o][0]
+        flist.append(tri); owner.append(o); neigh.append(n)
+    tri_ref = {}
+    for tri, r in zip(m.tris, m.tri_ref):
+        tri_ref.setdefault(tuple(sorted(tri)), r)
+    patches = {}
+    for k, l in sorted(faces.items()):
+        if len(l) == 1:
+            patches.setdefault(tri_ref.get(k, 0), []).append(l[0])
+    plist = []
+    for r in sorted(patches):
+        plist.append(("side%d" % r, len(flist), len(patches[r])))
+        for ti, tri in patches[r]:
+            flist.append(tri); owner.append(ti)
+    index = {tuple(sorted(f)): i for i, f in enumerate(flist)}
+    iface = [(index[tuple(sorted(t))], t) for t, r in zip(m.tris, m.tri_ref) if r == 7]
+    order = ">" if msb else "<"
+    lch, sch = ("q" if label == 64 else "i"), ("d" if scalar == 64 else "f")
+
+    def head(cls, obj):
+        h = "/* seed: %s */\n" % obj if comments else ""
+        h += "FoamFile\n{\n    version 2.0;\n    format %s;\n" % ("binary" if binary else "ascii")
+        if binary or label != 32:
+            h += '    arch "%s;label=%d;scalar=%d";\n' % ("MSB" if msb else "LSB", label, scalar)
+        return h + "    class %s;\n    object %s;\n}\n// * * * //\n\n" % (cls, obj)
+
+    def labels(v):
+        if binary:
+            return ("%d\n(" % len(v)).encode() + b"".join(struct.pack(order + lch, x) for x in v) + b")"
+        return ("%d\n(\n%s)" % (len(v), "".join("%d\n" % x for x in v))).encode()
+
+    pts = head("vectorField", "points").encode()
+    if binary:
+        pts += ("%d\n(" % len(m.xyz)).encode() + b"".join(struct.pack(order + sch * 3, *p) for p in m.xyz) + b")\n"
+    else:
+        pts += ("%d\n(\n%s)\n" % (len(m.xyz), "".join("(%s %s %s)\n" % tuple(fmt(x) for x in p) for p in m.xyz))).encode()
+    fcs = head("faceCompactList" if compact else "faceList", "faces").encode()
+    if compact:
+        fcs += labels([3 * i for i in range(len(flist) + 1)]) + b"\n" + labels([v for f in flist for v in f]) + b"\n"
+    elif binary:
+        fcs += ("%d\n(" % len(flist)).encode() + b"".join(b"3(" + b"".join(struct.pack(order + lch, v) for v in f) + b")"
+                                                        for f in flist) + b")\n"
+    else:
+        fcs += ("%d\n(\n%s)\n" % (len(flist), "".join("3(%d %d %d)\n" % f for f in flist))).encode()
+    own = head("labelList", "owner").encode() + labels(owner) + b"\n"
+    nb = neigh + ([-1] * (len(flist) - len(neigh)) if old_neighbour else [])
+    nei = head("labelList", "neighbour").encode() + labels(nb) + b"\n"
+    bnd = head("polyBoundaryMesh", "boundary") + "%d\n(\n" % len(plist)
+    for i, (name, start, n) in enumerate(plist):
+        extra = "        inGroups List<word> 1(wall);\n" if i == 0 else ""
+        bnd += "    %s\n    {\n        type %s;\n%s        nFaces %d;\n        startFace %d;\n    }\n" % (
+            name, "wall" if i == 0 else "patch", extra, n, start)
+    files = [pts, fcs, own, nei, (bnd + ")\n").encode()]
+    if zones:
+        cz = head("regIOobject", "cellZones").encode() + b"2\n(\n"
+        for r, name in ((1, "left"), (2, "right")):
+            cz += ("%s\n{\n    type cellZone;\n    cellLabels List<label> " % name).encode()
+            cz += labels([i for i, x in enumerate(m.tet_ref) if x == r]) + b";\n}\n"
+        cz += b")\n"
+        fz = head("regIOobject", "faceZones").encode() + b"1\n(\niface\n{\n    type faceZone;\n    faceLabels List<label> "
+        fz += labels([i for i, t in iface]) + b";\n    flipMap List<bool> "
+        flips = [0 if tuple(t) in (tuple(flist[i][j:] + flist[i][:j]) for j in range(3)) else 1 for i, t in iface]
+        if uniform_flip and len(set(flips)) == 1:
+            fz += ("%d{%d}" % (len(flips), flips[0])).encode()
+        elif binary:
+            fz += ("%d\n(" % len(flips)).encode() + bytes(flips) + b")"
+        else:
+            fz += ("%d\n(%s)" % (len(flips), " ".join(str(x) for x in flips))).encode()
+        fz += b";\n}\n)\n"
+        pz = head("regIOobject", "pointZones").encode() + b"1\n(\ncorner\n{\n    type pointZone;\n    pointLabels List<label> "
+        pz += labels([0]) + b";\n}\n)\n"
+        files += [cz, fz, pz]
+    return FOAM_SEP.join(files)
+
+
+def fluent(m, binary=False, single=False, mixed=False, zones45=False, two_node_zones=False):
+    """ANSYS Fluent mesh, from the Fluent User's Guide appendix B (sections
+    B.2, B.3.1-B.3.7, B.4.1): hexadecimal header and body integers, 1-based
+    node and cell indices, each face "n0 n1 n2 c0 c1" with its right-hand
+    normal toward c0 (c1 = 0 on the boundary), cells grouped by zone (the
+    box's regions), the sides as boundary zones, the interface in an
+    interior zone of its own; binary: 3010/3013 (2010 single precision)
+    sections with 32-bit ints.  mixed: face type 0 and a mixed cell zone
+    with a body of element types."""
+    fv = ((1, 2, 3), (0, 3, 2), (0, 1, 3), (0, 2, 1))
+    order = sorted(range(len(m.tets)), key=lambda t: (m.tet_ref[t], t))
+    cell = {t: i + 1 for i, t in enumerate(order)}
+    faces = {}
+    for ti, t in enumerate(m.tets):
+        for f in fv:
+            tri = tuple(t[x] for x in f)
+            faces.setdefault(tuple(sorted(tri)), []).append((ti, tri))
+    side = {}
+    for tri, r in zip(m.tris, m.tri_ref):
+        side.setdefault(tuple(sorted(tri)), r)
+    zones = {}
+    for k in sorted(faces):
+        l = faces[k]
+        if len(l) == 2:
+            (ta, tri), (tb, _) = l
+            # tri points out of ta: toward c0 = tb
+            z = 27 if m.tet_ref[ta] != m.tet_ref[tb] else 20
+            zones.setdefault(z, []).append((tri, cell[tb], cell[ta]))
+        else:
+            ta, tri = l[0]
+            zones.setdefault(10 + side.get(k, 0), []).append(((tri[0], tri[2], tri[1]), cell[ta], 0))
+    nv, nc = len(m.xyz), len(m.tets)
+    nf = sum(len(v) for v in zones.values())
+    out = [b'(0 "seed written by make_seeds.py")\n(1 "make_seeds")\n(2 3)\n']
+    out.append(("(10 (0 1 %x 0 3))\n(12 (0 1 %x 0 0))\n(13 (0 1 %x 0 0))\n" % (nv, nc, nf)).encode())
+    cuts = [(1, nv)] if not two_node_zones else [(1, nv // 2), (nv // 2 + 1, nv)]
+    for zi, (a, b) in enumerate(cuts):
+        if binary:
+            idx = 2010 if single else 3010
+            out.append(("(%d (%x %x %x 1 3)(" % (idx, 30 + zi, a, b)).encode())
+            out.append(b"".join(struct.pack("<" + ("f" if single else "d") * 3, *m.xyz[i - 1]) for i in range(a, b + 1)))
+            out.append((")\nEnd of Binary Section %d)\n" % idx).encode())
+        else:
+            out.append(("(10 (%x %x %x 1 3)(\n" % (30 + zi, a, b)).encode())
+            out.append("".join("%s %s %s\n" % tuple(fmt(x) for x in m.xyz[i - 1]) for i in range(a, b + 1)).encode())
+            out.append(b"))\n")
+    first = 1
+    for r in sorted(set(m.tet_ref)):
+        n = sum(1 for t in order if m.tet_ref[t] == r)
+        if mixed:
+            out.append(("(12 (%x %x %x 1 0)(\n%s\n))\n" % (r, first, first + n - 1, " ".join(["2"] * n))).encode())
+        else:
+            out.append(("(12 (%x %x %x 1 2))\n" % (r, first, first + n - 1)).encode())
+        first += n
+    first = 1
+    for z in sorted(zones):
+        fs = zones[z]
+        bc = 2 if z in (20, 27) else 3
+        ft = 0 if mixed else 3
+        if binary:
+            out.append(("(3013 (%x %x %x %x %x)(" % (z, first, first + len(fs) - 1, bc, ft)).encode())
+            for tri, c0, c1 in fs:
+                vals = ([3] if mixed else []) + [v + 1 for v in tri] + [c0, c1]
+                out.append(struct.pack("<%di" % len(vals), *vals))
+            out.append(b")\nEnd of Binary Section 3013)\n")
+        else:
+            out.append(("(13 (%x %x %x %x %x)(\n" % (z, first, first + len(fs) - 1, bc, ft)).encode())
+            out.append("".join(("3 " if mixed else "") + "%x %x %x %x %x\n" % (tri[0] + 1, tri[1] + 1, tri[2] + 1, c0, c1)
+                               for tri, c0, c1 in fs).encode())
+            out.append(b"))\n")
+        first += len(fs)
+    sec = 45 if zones45 else 39
+    for r in sorted(set(m.tet_ref)):
+        out.append(("(%d (%d fluid region-%d)())\n" % (sec, r, r)).encode())
+    for z in sorted(zones):
+        t = "interior" if z in (20, 27) else ("velocity-inlet" if z == 11 else "wall")
+        out.append(("(%d (%d %s zone-%d)(\n(some-condition . 1)\n))\n" % (sec, z, t, z)).encode())
+    return b"".join(out)
+
+
+def abaqus(m, sparse=False, generate=False, by_elset=False, continuation=False, lower=False, refs=False):
+    """Abaqus / CalculiX input from the Abaqus Keywords Reference (*NODE,
+    *ELEMENT TYPE=C3D4, *ELSET with GENERATE, *NSET, *SURFACE TYPE=ELEMENT
+    with C3D4 faces S1 = 1-2-3, S2 = 1-4-2, S3 = 2-4-3, S4 = 3-4-1): the
+    regions as element sets, the box corners as a node set, each side as a
+    surface of element faces; sparse: ids 10 apart; by_elset: the ELSET=
+    parameter of *ELEMENT; refs: "**tetopt ref=" comments."""
+    nid = (lambda i: 10 * i + 7) if sparse else (lambda i: i + 1)
+    eid = (lambda i: 10 * i + 3) if sparse else (lambda i: i + 1)
+    kw = (lambda s: s.lower()) if lower else (lambda s: s)
+    out = ["** seed written by make_seeds.py\n", kw("*HEADING") + "\n box\n", kw("*NODE") + "\n"]
+    for i, p in enumerate(m.xyz):
+        out.append("%d, %s, %s, %s\n" % (nid(i), fmt(p[0]), fmt(p[1]), fmt(p[2])))
+    regions = sorted(set(m.tet_ref))
+    if by_elset:
+        for r in regions:
+            out.append(kw("*ELEMENT, TYPE=C3D4, ELSET=") + "R%d\n" % r)
+            for i, t in enumerate(m.tets):
+                if m.tet_ref[i] == r:
+                    out.append(("%d, %d, %d,\n%d, %d\n" if continuation else "%d, %d, %d, %d, %d\n") % ((eid(i),) + tuple(nid(v) for v in t)))
+    else:
+        out.append(kw("*ELEMENT, TYPE=C3D4") + "\n")
+        for i, t in enumerate(m.tets):
+            out.append(("%d, %d, %d,\n%d, %d\n" if continuation else "%d, %d, %d, %d, %d\n") % ((eid(i),) + tuple(nid(v) for v in t)))
+        for r in regions:
+            ids = [eid(i) for i, x in enumerate(m.tet_ref) if x == r]
+            if refs:
+                out.append("**tetopt ref=%d\n" % (r * 10))
+            if generate and ids == list(range(ids[0], ids[-1] + 1, (ids[1] - ids[0]) if len(ids) > 1 else 1)):
+                out.append(kw("*ELSET, ELSET=") + "R%d, GENERATE\n%d, %d, %d\n" % (r, ids[0], ids[-1], (ids[1] - ids[0]) if len(ids) > 1 else 1))
+            else:
+                out.append(kw("*ELSET, ELSET=") + "R%d\n" % r + "".join("%d,\n" % x for x in ids))
+    out.append(kw("*NSET, NSET=") + "CORNERS\n" + ", ".join(str(nid(v)) for v in m.corners) + "\n")
+    fv = {(0, 1, 2): 1, (0, 3, 1): 2, (1, 3, 2): 3, (2, 3, 0): 4}
+    faces = {}
+    for i, t in enumerate(m.tets):
+        for loc, sname in fv.items():
+            faces.setdefault(tuple(sorted(t[x] for x in loc)), (i, sname))
+    sides = {}
+    for tri, r in zip(m.tris, m.tri_ref):
+        sides.setdefault(r, []).append(faces[tuple(sorted(tri))])
+    for r in sorted(sides):
+        out.append(kw("*SURFACE, NAME=") + "SIDE%d, TYPE=ELEMENT\n" % r)
+        out.append("".join("%d, S%d\n" % (eid(i), f) for i, f in sides[r]))
+    out.append(kw("*MATERIAL, NAME=") + "STEEL\n" + kw("*ELASTIC") + "\n210000., 0.3\n")
+    return "".join(out).encode()
+
+
 # ----------------------------------------------------------------- main ----
 
 def seeds():
@@ -628,6 +855,28 @@ def seeds():
     s["tetgen/seed-tetgen-noface-noattr"] = tetgen(one, attrs=False, markers=False, face=False)
     s["tetgen/seed-tetgen-comments-positive"] = tetgen(two, comments=True, negative=False, base=1)
     s["tetgen/seed-tetgen-jitter"] = tetgen(twoj)
+
+    # OpenFOAM polyMesh (the files joined by FOAM_SEP)
+    s["openfoam/seed-foam-ascii-zones-comments"] = polymesh(two, comments=True)
+    s["openfoam/seed-foam-ascii-nozones-oldneighbour"] = polymesh(one, zones=False, old_neighbour=True)
+    s["openfoam/seed-foam-ascii-compact-uniformflip"] = polymesh(two, compact=True, uniform_flip=True)
+    s["openfoam/seed-foam-binary-lsb-32-64"] = polymesh(two, binary=True)
+    s["openfoam/seed-foam-binary-msb-64-32"] = polymesh(two, binary=True, msb=True, label=64, scalar=32)
+    s["openfoam/seed-foam-binary-facelist"] = polymesh(one, binary=True, compact=False, zones=False)
+    s["openfoam/seed-foam-ascii-jitter"] = polymesh(twoj, zones=False)
+
+    # Fluent .msh
+    s["fluent/seed-fluent-ascii"] = fluent(two)
+    s["fluent/seed-fluent-ascii-mixed-45-nodezones"] = fluent(two, mixed=True, zones45=True, two_node_zones=True)
+    s["fluent/seed-fluent-binary-double"] = fluent(two, binary=True)
+    s["fluent/seed-fluent-binary-single-mixed"] = fluent(one, binary=True, single=True, mixed=True)
+    s["fluent/seed-fluent-ascii-jitter"] = fluent(twoj)
+
+    # Abaqus / CalculiX .inp
+    s["abaqus/seed-inp-flat"] = abaqus(two)
+    s["abaqus/seed-inp-sparse-generate-refs"] = abaqus(two, sparse=True, generate=True, refs=True)
+    s["abaqus/seed-inp-elset-continuation-lower"] = abaqus(two, by_elset=True, continuation=True, lower=True)
+    s["abaqus/seed-inp-jitter"] = abaqus(twoj)
     return s
 
 

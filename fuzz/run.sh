@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang, ASan+UBSan) in build-fuzz and runs each
 # for SECONDS (default 60) on its corpus.
-#   usage: fuzz/run.sh [SECONDS] [TARGET...]      TARGET: medit meditb gmsh vtk vtu tetgen ops
+#   usage: fuzz/run.sh [SECONDS] [TARGET...]      TARGET: medit meditb gmsh vtk vtu tetgen openfoam fluent abaqus ops
 #   FUZZ_MERGE=1   merge the new interesting inputs into fuzz/corpus/TARGET
 #                  (minimised with -merge=1; keep the committed corpus < 2 MB)
 #   FUZZ_JOBS=N    build parallelism (default 2)
@@ -18,7 +18,7 @@ set -u
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 secs=${1:-60}; shift || true
-targets=${*:-medit meditb gmsh vtk vtu tetgen ops}
+targets=${*:-medit meditb gmsh vtk vtu tetgen openfoam fluent abaqus ops}
 build=${FUZZ_BUILD:-$root/build-fuzz}
 clangxx=$(command -v clang++ || true)
 if [ -z "$clangxx" ]; then echo "fuzz: clang++ not found (apt-get install clang libclang-rt-14-dev)" >&2; exit 2; fi

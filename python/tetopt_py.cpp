@@ -17,16 +17,23 @@
 // Unsupported -> ValueError, Invariant (a bug) -> RuntimeError.
 //
 // The GIL is released around improve(), reading, writing and the quality
-// statistics.  Ctrl-C is honoured between the driver's log messages: the
-// callback re-acquires the GIL, calls PyErr_CheckSignals and, on a pending
-// KeyboardInterrupt, sets the `interrupted` flag improve() polls; the
-// exception is re-raised once improve() has returned a valid mesh.
+// statistics.  improve() runs on a worker thread while the calling thread
+// waits for it in slices of kSignalPollMs with the GIL released, and between
+// slices runs Python's signal handlers (PyErr_CheckSignals): on Ctrl-C it
+// sets the `interrupted` flag that improve() polls between phases and
+// inside the passes, joins the worker (no thread is left running) and
+// raises KeyboardInterrupt.  The log and progress callbacks run on the
+// worker with the GIL taken for them.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
+#include <thread>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -489,40 +496,86 @@ const char* level_name(tetopt::LogLevel l) {
   return "info";
 }
 
-/// Runs improve() on a prepared mesh with the GIL released; returns the
-/// report JSON (the CLI's --report content).  Re-raises Ctrl-C and
-/// exceptions from the user's log callback after improve() returns.
-std::string run_improve(TetMesh& m, const tetopt::ImproveOptions& opt, const py::object& log,
+/// How often the waiting thread runs Python's signal handlers during improve().
+constexpr int kSignalPollMs = 10;
+
+/// Runs improve() on a prepared mesh on a worker thread, the GIL released;
+/// returns the report JSON (the CLI's --report content).  Ctrl-C: see the
+/// top of this file.  Exceptions from the user's callbacks are re-raised
+/// after improve() has returned (a callback that raises also stops the run).
+/// A progress callback returning False stops the run: the report says
+/// "stopped_early": true and the mesh is valid and checked.
+std::string run_improve(TetMesh& m, tetopt::ImproveOptions& opt, const py::object& log, const py::object& progress,
                         std::chrono::steady_clock::time_point t0, const std::string& input) {
   std::atomic<bool> stop{false};
   std::optional<py::error_already_set> pending;  // destroyed with the GIL held
-  tetopt::LogFn fn = [&](tetopt::LogLevel lvl, const std::string& msg) {
-    py::gil_scoped_acquire gil;
-    if (pending) return;
-    if (PyErr_CheckSignals() != 0) {
-      pending.emplace();
-      stop = true;
-      return;
-    }
-    if (log.is_none()) return;
-    try {
-      log(level_name(lvl), msg);
-    } catch (py::error_already_set& e) {
-      pending.emplace(std::move(e));
-      stop = true;
-    }
-  };
+  tetopt::LogFn fn;
+  if (!log.is_none())
+    fn = [&](tetopt::LogLevel lvl, const std::string& msg) {
+      py::gil_scoped_acquire gil;
+      if (pending) return;
+      try {
+        log(level_name(lvl), msg);
+      } catch (py::error_already_set& e) {
+        pending.emplace(std::move(e));
+        stop = true;
+      }
+    };
+  if (!progress.is_none())
+    opt.progress = [&](const tetopt::ImproveProgress& p) {
+      py::gil_scoped_acquire gil;
+      if (pending) return false;
+      try {
+        py::object r = progress(p.phase, p.round, p.fraction, p.worst);
+        // None (a callback that only prints) goes on; False stops.
+        return r.is_none() || PyObject_IsTrue(r.ptr()) != 0;
+      } catch (py::error_already_set& e) {
+        pending.emplace(std::move(e));
+        stop = true;
+        return false;
+      }
+    };
   tetopt::ImproveReport rep;
   Status s;
   tetopt::MeasureStats measures_before, measures_after;  // the report's measures_before_after, as the CLI's
+  std::exception_ptr failure;
+  std::mutex mu;
+  std::condition_variable cv;
+  bool done = false;
   {
     py::gil_scoped_release nogil;
-    measures_before = tetopt::compute_measure_stats(m, opt.threads);
-    s = tetopt::improve(m, opt, rep, fn, &stop);
-    if (s) measures_after = tetopt::compute_measure_stats(m, opt.threads);
+    std::thread worker([&] {
+      try {
+        measures_before = tetopt::compute_measure_stats(m, opt.threads);
+        s = tetopt::improve(m, opt, rep, fn, &stop);
+        if (s.mesh_valid() && !stop) measures_after = tetopt::compute_measure_stats(m, opt.threads);
+      } catch (...) {
+        failure = std::current_exception();
+      }
+      std::lock_guard<std::mutex> lk(mu);
+      done = true;
+      cv.notify_all();
+    });
+    bool interrupted = false;
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lk(mu);
+        if (cv.wait_for(lk, std::chrono::milliseconds(kSignalPollMs), [&] { return done; })) break;
+      }
+      if (interrupted) continue;
+      py::gil_scoped_acquire gil;
+      if (PyErr_CheckSignals() != 0) {  // a handler raised (KeyboardInterrupt): stop, then re-raise
+        interrupted = true;
+        py::error_already_set e;
+        if (!pending) pending.emplace(std::move(e));
+        stop = true;
+      }
+    }
+    worker.join();
   }
   if (pending) throw std::move(*pending);
-  throw_status(s, "improve");
+  if (failure) std::rethrow_exception(failure);
+  if (!s.stopped()) throw_status(s, "improve");
   std::string js = tetopt::report_to_json(rep, opt, input, "");
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // The arrays are improved in the order given (the CLI may put a large
@@ -541,9 +594,9 @@ py::object improve_diagnosis(const TetMesh& m, const tetopt::ImproveOptions& opt
 }
 
 py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py::handle constrained_faces,
-                         const PyImproveOptions& popt, const py::object& log) {
+                         const PyImproveOptions& popt, const py::object& log, const py::object& progress) {
   const auto t0 = std::chrono::steady_clock::now();
-  const tetopt::ImproveOptions opt = to_options(popt);
+  tetopt::ImproveOptions opt = to_options(popt);
   TetMesh m;
   get_points(points, m.xyz);
   get_index_array(tets, m.tets, "tets", 4, false, m.nv(), "points");
@@ -560,7 +613,7 @@ py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py
   throw_status(tetopt::check_arrays(m, "mesh"));
   // Inverted or flat tets are untangled by improve(), as in the CLI.
   const tetopt::OrientationReport orient = prepare(m);
-  const std::string js = run_improve(m, opt, log, t0, "<arrays>");
+  const std::string js = run_improve(m, opt, log, progress, t0, "<arrays>");
   py::object dj = improve_diagnosis(m, opt, popt);
   if (orient.flipped)  // hand the tets back in the caller's (negative) convention
     for (int32_t t = 0; t < m.nt(); ++t) std::swap(m.tets[4 * size_t(t) + tetopt::kFlipA], m.tets[4 * size_t(t) + tetopt::kFlipB]);
@@ -569,12 +622,13 @@ py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py
                         js, dj);
 }
 
-py::tuple improve_mesh(const py::dict& d, const PyImproveOptions& popt, const py::object& log) {
+py::tuple improve_mesh(const py::dict& d, const PyImproveOptions& popt, const py::object& log,
+                       const py::object& progress) {
   const auto t0 = std::chrono::steady_clock::now();
-  const tetopt::ImproveOptions opt = to_options(popt);
+  tetopt::ImproveOptions opt = to_options(popt);
   TetMesh m = mesh_from_dict(d);
   prepare(m);  // improve() untangles inverted or flat tets, as in the CLI
-  const std::string js = run_improve(m, opt, log, t0, "<mesh>");
+  const std::string js = run_improve(m, opt, log, progress, t0, "<mesh>");
   py::object dj = improve_diagnosis(m, opt, popt);
   return py::make_tuple(mesh_to_dict(std::move(m)), js, dj);
 }
@@ -683,10 +737,11 @@ PYBIND11_MODULE(_tetopt, mod) {
   mod.attr("HAVE_DIAGNOSE") = py::bool_(TETOPT_PY_HAVE_DIAGNOSE != 0);
 
   mod.def("improve_arrays", &improve_arrays, py::arg("points"), py::arg("tets"), py::arg("refs"),
-          py::arg("constrained_faces"), py::arg("options"), py::arg("log"),
-          "improve_arrays(points, tets, refs, constrained_faces, options, log) -> (points, tets, refs, report_json, diagnosis_json|None)");
+          py::arg("constrained_faces"), py::arg("options"), py::arg("log"), py::arg("progress") = py::none(),
+          "improve_arrays(points, tets, refs, constrained_faces, options, log, progress) -> (points, tets, refs, report_json, diagnosis_json|None)");
   mod.def("improve_mesh", &improve_mesh, py::arg("mesh"), py::arg("options"), py::arg("log"),
-          "improve_mesh(mesh_dict, options, log) -> (mesh_dict, report_json, diagnosis_json|None)");
+          py::arg("progress") = py::none(),
+          "improve_mesh(mesh_dict, options, log, progress) -> (mesh_dict, report_json, diagnosis_json|None)");
   mod.def("quality_mesh", &quality_mesh, py::arg("mesh"), py::arg("diagnose"), py::arg("threshold"),
           "quality_mesh(mesh_dict, diagnose, threshold) -> (stats_json, diagnosis_json|None, classes|None, alpha, "
           "dihedral_min, dihedral_max, kind)");

@@ -125,7 +125,7 @@ bool dihedral_cosines(const Frame& f, const double d[3], double& cmin, double& c
 constexpr double kDeg = 180.0 / M_PI;
 
 // The objective to maximise at local apex p (z folded to the positive side).
-struct Objective {
+struct ApexMeasure {
   const Frame& f;
   ApexObjective obj;
   double operator()(const Vec3& p) const {
@@ -156,7 +156,7 @@ struct Objective {
 };
 
 // All three objectives at p, in the order Alpha, MinDihedral, MaxDihedral:
-// the values of Objective{f, obj}(p), from one set of face normals.
+// the values of ApexMeasure{f, obj}(p), from one set of face normals.
 void objectives_at(const Frame& f, const Vec3& p, double out[3]) {
   if (!in_reach(p)) {
     out[0] = out[1] = out[2] = -std::numeric_limits<double>::infinity();
@@ -339,7 +339,7 @@ double cheap_apex_value(const double* a, const double* b, const double* c, ApexO
   // The other measures: the best candidate apex, one objective at a time.
   const Frame f(a, b, c);
   if (f.degenerate) return degenerate_value(obj);
-  const Objective g{f, obj};
+  const ApexMeasure g{f, obj};
   double best = -std::numeric_limits<double>::infinity();
   for (const Vec3& p : candidates(f)) best = std::max(best, g(p));
   return to_public(obj, best);
@@ -351,7 +351,7 @@ namespace {
 double quick_score(const double* a, const double* b, const double* c, ApexObjective obj) {
   const Frame f(a, b, c);
   if (f.degenerate) return to_public(obj, degenerate_value(obj));
-  const Objective g{f, obj};
+  const ApexMeasure g{f, obj};
   double best = -std::numeric_limits<double>::infinity();
   Vec3 bp{0, 0, 0};
   for (const Vec3& p : candidates(f)) {
@@ -370,7 +370,7 @@ ApexResult best_apex(const double* a, const double* b, const double* c, ApexObje
     for (int k = 0; k < 3; ++k) r.apex[k] = (a[k] + b[k] + c[k]) / 3;
     return r;
   }
-  const Objective g{f, obj};
+  const ApexMeasure g{f, obj};
   // Starts: the candidates and a coarse grid around the triangle.
   std::vector<std::pair<double, Vec3>> starts;
   for (const Vec3& p : candidates(f)) starts.push_back({g(p), p});

@@ -4,8 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <sstream>
 
+#include "detail/view3d_assets.hpp"
+
+#include "tetopt/conventions.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/report.hpp"
 
@@ -71,6 +75,12 @@ th{background:#f0f4f8;font-weight:600}td.l,th.l{text-align:left}
 svg text{font-size:11px;fill:#334e68}.s0{fill:#9fb3c8}.s1{fill:#2680c2}.bar:hover{fill:#f0b429}
 .c1{color:#ab091e}.c2{color:#8d2b0b}.c3{color:#0b6e4f}
 button{font:inherit;padding:3px 10px;margin:4px 0}.note{color:#52606d;font-size:.88em}
+.view3d{border:1px solid #d9e2ec;border-radius:6px;padding:8px}#tv-canvas{position:relative;height:560px;background:#f5f7fa;overflow:hidden}
+#tv-canvas canvas{display:block;width:100%;height:100%}.tv-msg{padding:24px;color:#52606d}
+.tv-row{margin:4px 0;font-size:.9em}.tv-row label{margin-right:10px}#tv-legend{font-size:.85em;margin:6px 0}
+.tv-key{display:inline-block;margin:0 10px 2px 0}.tv-key i{display:inline-block;width:11px;height:11px;margin-right:4px;vertical-align:-1px;border:1px solid #9fb3c8}
+.tv-ramp{display:inline-block;width:120px;height:10px;vertical-align:-1px;border:1px solid #9fb3c8}
+tr.tv-link{cursor:pointer}tr.tv-link:hover td{background:#fffbea}tr.tv-sel td{background:#fff3c4}
 )";
 
 const char* kScript = R"(
@@ -339,7 +349,111 @@ void run_tables(std::ostringstream& o, const HtmlReportInput& in) {
     << "</table>\n";
 }
 
-void diagnosis_section(std::ostringstream& o, const HtmlReportInput& in) {
+// ---- the 3D view (view3d.hpp, src/view3d.js) ----
+
+template <class T>
+std::string b64(const std::vector<T>& v) {
+  return base64(v.data(), v.size() * sizeof(T));
+}
+
+std::string json_number(double x) {
+  if (!std::isfinite(x)) return "null";
+  char b[40];
+  std::snprintf(b, sizeof b, "%.17g", x);
+  return b;
+}
+
+void set_json(std::ostringstream& o, const char* name, const std::string& label, const ViewTets& t,
+              const double surface_origin[3]) {
+  o << "{\"name\":\"" << name << "\",\"label\":\"" << label << "\",\"below\":" << t.below << ",\"offset\":["
+    << json_number(t.origin[0] - surface_origin[0]) << "," << json_number(t.origin[1] - surface_origin[1]) << ","
+    << json_number(t.origin[2] - surface_origin[2]) << "],\"xyz\":\"" << b64(t.xyz) << "\",\"tets\":\"" << b64(t.tets)
+    << "\",\"ids\":\"" << b64(t.ids) << "\",\"alpha\":\"" << b64(t.alpha) << "\",\"dihedral_min\":\""
+    << b64(t.dihedral_min) << "\",\"dihedral_max\":\"" << b64(t.dihedral_max) << "\",\"kind\":\"" << b64(t.kind) << "\"";
+  if (!t.cls.empty() || t.ids.empty())
+    o << ",\"cls\":\"" << b64(t.cls) << "\",\"best_alpha\":\"" << b64(t.best_alpha) << "\",\"cap_face\":\""
+      << b64(t.cap_face) << "\",\"constrained_faces\":\"" << b64(t.constrained_faces) << "\"";
+  o << "}";
+}
+
+// The section's visible part: the canvas box, its controls, what it shows.
+// The data and the code follow at the end of the page (view_scripts).
+void view_section(std::ostringstream& o, const HtmlReportInput& in, const ViewSurface* sp, const ViewTets* ap) {
+  o << "<h3 id=\"where\">Where they are</h3>\n";
+  if (!sp || !ap) {
+    o << "<p class=\"note\" id=\"tv-off\">The 3D view is not built into this tetopt (configured with "
+         "TETOPT_VIEW3D=OFF).</p>\n";
+    return;
+  }
+  o << "<div class=\"view3d\" id=\"view3d\"><div id=\"tv-canvas\"><p class=\"tv-msg\">The 3D view needs "
+       "JavaScript and WebGL.</p></div>\n<div id=\"tv-controls\"></div><div id=\"tv-legend\"></div>"
+       "<div id=\"tv-info\"></div></div>\n<p class=\"note\" id=\"tv-notes\">";
+  const ViewSurface& surf = *sp;
+  const ViewTets& after = *ap;
+  if (surf.decimated)
+    o << "<span id=\"tv-decimated\">The constrained surface (boundary, region interfaces, listed triangles) has "
+      << surf.triangles_full << " triangles, more than the view's "
+      << "budget of " << in.view_surface_budget << ": it draws " << surf.tris.size() / 3
+      << ", decimated for display only (vertex clustering, Rossignac and Borrel 1993); the mesh is unchanged.</span> ";
+  else
+    o << "The view draws all " << surf.triangles_full
+      << " constrained triangles (boundary, region interfaces, listed triangles). ";
+  auto shown = [&](const char* label, const ViewTets& t) {
+    o << label << ": " << t.ids.size() << " tets with α &lt; " << f("%.3g", in.diagnosis->threshold);
+    if (static_cast<int64_t>(t.ids.size()) < t.below) o << " shown, the worst of " << t.below;
+    o << ". ";
+  };
+  if (in.poor_before) shown("Before", *in.poor_before);
+  shown(in.has_after ? "After" : "Mesh", after);
+  o << "Only the constrained surface and the poor tets are in the page. The surface is drawn see-through (opacity slider) "
+       "and can be cut by a plane; tets are coloured by the measure chosen.</p>\n";
+}
+
+void view_scripts(std::ostringstream& o, const HtmlReportInput& in, const ViewSurface& surf, const ViewTets& after) {
+  const detail::View3dAssets& a = detail::view3d_assets();
+  if (!a.built_in) return;
+  o << "<script type=\"application/json\" id=\"tv-data\">{\"version\":1,\"threshold\":"
+    << json_number(in.diagnosis->threshold) << ",\"threshold_text\":\"" << f("%.3g", in.diagnosis->threshold)
+    << "\",\"class_names\":[";
+  for (int c = 0; c < 4; ++c) o << (c ? "," : "") << "\"" << tet_class_name(static_cast<TetClass>(c)) << "\"";
+  o << "],\"face_vertex\":[";
+  for (int fi = 0; fi < 4; ++fi)
+    o << (fi ? "," : "") << "[" << kFaceVertex[fi][0] << "," << kFaceVertex[fi][1] << "," << kFaceVertex[fi][2] << "]";
+  o << "],\"surface\":{\"origin\":[" << json_number(surf.origin[0]) << "," << json_number(surf.origin[1]) << ","
+    << json_number(surf.origin[2]) << "],\"diagonal\":" << json_number(surf.bbox_diagonal)
+    << ",\"by_patch\":" << (surf.by_patch ? "true" : "false") << ",\"total\":" << surf.triangles_full
+    << ",\"decimated\":" << (surf.decimated ? "true" : "false") << ",\"xyz\":\"" << b64(surf.xyz) << "\",\"tris\":\""
+    << b64(surf.tris) << "\",\"groups\":[";
+  for (size_t g = 0; g < surf.group_ref.size(); ++g)
+    o << (g ? "," : "") << "[" << surf.group_ref[g] << "," << surf.group_start[g] << "," << surf.group_count[g] << "]";
+  o << "]},\"sets\":[";
+  if (in.poor_before) {
+    set_json(o, "before", "before", *in.poor_before, surf.origin);
+    o << ",";
+  }
+  set_json(o, in.has_after ? "after" : "mesh", in.has_after ? "after" : "mesh", after, surf.origin);
+  o << "]";
+  const MeshBound& b = in.diagnosis->bound;
+  if (b.alpha_tet >= 0 && b.alpha_tet < in.mesh->nt() && b.alpha_face >= 0 && b.alpha_face < 4 && std::isfinite(b.alpha)) {
+    // The triangle holding the mesh-wide bound, drawn whether or not its
+    // tet is poor.
+    o << ",\"bound\":{\"tet\":" << b.alpha_tet << ",\"face\":" << b.alpha_face << ",\"alpha\":" << json_number(b.alpha)
+      << ",\"xyz\":[";
+    const int32_t* tv = in.mesh->tet(b.alpha_tet);
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k)
+        o << (i || k ? "," : "") << json_number(in.mesh->point(tv[kFaceVertex[b.alpha_face][i]])[k] - surf.origin[k]);
+    o << "]}";
+  }
+  o << "}</script>\n";
+  o << "<script type=\"text/plain\" id=\"tv-three-core\">" << a.three_core << "</script>\n"
+    << "<script type=\"text/plain\" id=\"tv-three-module\">" << a.three_module << "</script>\n"
+    << "<script type=\"text/plain\" id=\"tv-three-orbit\">" << a.orbit_controls << "</script>\n"
+    << "<script type=\"module\">" << a.app << "</script>\n";
+}
+
+void diagnosis_section(std::ostringstream& o, const HtmlReportInput& in, const ViewSurface* surf,
+                       const ViewTets* after) {
   o << "<h2>Why are the remaining tets bad?</h2>\n";
   const Diagnosis* d = in.diagnosis;
   if (!d) {
@@ -367,6 +481,7 @@ void diagnosis_section(std::ostringstream& o, const HtmlReportInput& in) {
       << ", largest dihedral ≥ " << f("%.2f°", b.dihedral_max) << ". The α bound comes from a face of tet "
       << b.alpha_tet + 1 << " at (" << f("%.6g", b.alpha_location[0]) << ", " << f("%.6g", b.alpha_location[1])
       << ", " << f("%.6g", b.alpha_location[2]) << ").</p>\n";
+  if (in.mesh) view_section(o, in, surf, after);
   if (d->poor.empty()) return;
   const size_t nl = std::min(in.max_tets_listed, d->poor.size());
   o << "<p class=\"note\">The " << nl << " worst of them (tet ids 1-based as the command line prints them; the "
@@ -376,7 +491,7 @@ void diagnosis_section(std::ostringstream& o, const HtmlReportInput& in) {
   for (size_t i = 0; i < nl; ++i) {
     const PoorTet& p = d->poor[i];
     const int c = static_cast<int>(p.cls);
-    o << "<tr><td>" << p.tet + 1 << "</td><td>" << f("%.4f", p.alpha) << "</td><td>" << f("%.2f", p.dihedral_min)
+    o << "<tr data-tet=\"" << p.tet << "\"><td>" << p.tet + 1 << "</td><td>" << f("%.4f", p.alpha) << "</td><td>" << f("%.2f", p.dihedral_min)
       << "</td><td>" << f("%.2f", p.dihedral_max) << "</td><td>" << p.kind << "</td><td class=\"l c" << c << "\">"
       << tet_class_name(p.cls) << "</td><td>"
       << (std::isnan(p.best_alpha) ? (p.constrained_faces > 0 ? "≥ " + f("%.3g", d->threshold) : std::string("–"))
@@ -439,10 +554,20 @@ std::string html_report(const HtmlReportInput& in) {
   stats_tables(o, in);
   if (in.before.measures.computed) measures_section(o, in);
   run_tables(o, in);
-  diagnosis_section(o, in);
+  // The 3D view's sets (view3d.hpp), when a mesh is given.
+  std::unique_ptr<ViewSurface> surf;
+  std::unique_ptr<ViewTets> after;
+  if (in.mesh && in.diagnosis && detail::view3d_assets().built_in) {
+    surf = std::make_unique<ViewSurface>(view_surface(*in.mesh, in.view_surface_budget));
+    const size_t max_tets = in.poor_before ? in.view_max_tets / 2 : in.view_max_tets;
+    after = std::make_unique<ViewTets>(view_diagnosed_tets(*in.mesh, *in.diagnosis, max_tets, surf->origin));
+  }
+  diagnosis_section(o, in, surf.get(), after.get());
   o << "<p class=\"note\">Written by tetopt. This page is self-contained: no network, no external scripts or "
        "fonts.</p>\n";
-  o << "<script>" << kScript << "</script>\n</body>\n</html>\n";
+  o << "<script>" << kScript << "</script>\n";
+  if (surf) view_scripts(o, in, *surf, *after);
+  o << "</body>\n</html>\n";
   return o.str();
 }
 

@@ -35,7 +35,34 @@ class Driver {
       sub_log_ = [this](LogLevel l, const std::string& s) { log_(l == LogLevel::Info ? LogLevel::Debug : l, s); };
   }
 
-  bool stopped() const { return stop_ && stop_->load(); }
+  // The caller asked the run to stop: its progress callback returned false
+  // or `interrupted` (an abort, also polled inside the passes) is set.
+  bool stopped() const { return cancelled_ || aborted(); }
+  bool aborted() const { return stop_ && stop_->load(); }
+
+  // A phase boundary: ImproveOptions::progress hears of it (with the worst q
+  // of the cache when the cache is current, not refilled for it: the
+  // passes' results do not depend on the callback).  False when the run
+  // must stop here.
+  bool checkpoint(const char* phase, double phases_done = 0) {
+    if (o_.progress && !cancelled_) {
+      if (static_cast<int32_t>(alpha_.size()) == m_.nt() && !alpha_.empty()) last_worst_ = worst();
+      ImproveProgress p;
+      p.phase = phase;
+      p.round = round_;
+      const double planned = o_.mode == ImproveMode::Smooth || o_.mode == ImproveMode::Topo
+                                 ? 1.0
+                                 : static_cast<double>(std::max(1, o_.iterations));
+      // Outside the rounds (dihedral pass, polish): the rounds run so far.
+      const double f = round_ > 0 ? (round_ - 1 + phases_done) / planned : r_.rounds / planned;
+      last_fraction_ = std::max(last_fraction_, std::clamp(f, 0.0, 1.0));
+      if (std::string(phase) == "done") last_fraction_ = 1.0;
+      p.fraction = last_fraction_;
+      p.worst = last_worst_;
+      if (!o_.progress(p)) cancelled_ = true;
+    }
+    return !stopped();
+  }
 
   void info(const std::string& s) const {
     if (log_) log_(LogLevel::Info, s);
@@ -54,6 +81,7 @@ class Driver {
     so.threads = o_.threads;
     so.objective = o_.objective;
     so.guard = guard_;
+    so.stop = stop_;
     return so;
   }
 
@@ -87,6 +115,7 @@ class Driver {
     to.rebuild_stars = false;
     to.objective = o_.objective;
     to.guard = guard_;
+    to.stop = stop_;
     TopoStats st = remove_all_boundary_tets(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
@@ -102,6 +131,7 @@ class Driver {
     to.rebuild_stars = false;
     to.objective = o_.objective;
     to.guard = guard_;
+    to.stop = stop_;
     TopoStats st = pair_flip_pass(m_, to, kPairBand, kPairMax, /*stop_at_worst=*/true, sub_log_, &alpha_);
     add(st, since(t));
     r_.pair_flips += st.pairs;
@@ -118,6 +148,7 @@ class Driver {
     to.rebuild_stars = false;
     to.objective = objective;
     to.guard = guard_;
+    to.stop = stop_;
     TopoStats st = flip_pass(m_, to, sub_log_, &alpha_);
     add(st, since(t));
     return st.status;
@@ -126,12 +157,18 @@ class Driver {
   Status run() {
     switch (o_.mode) {
       case ImproveMode::Smooth:
+        round_ = 1;
         smooth(smooth_opts(o_.threshold, std::max(1, o_.iterations), o_.maxmin_optimizer, o_.seed));
         r_.rounds = 1;
+        checkpoint("smooth", 1);
         return Status::success();
-      case ImproveMode::Topo:
+      case ImproveMode::Topo: {
+        round_ = 1;
         r_.rounds = 1;
-        return flips(o_.threshold);
+        Status s = flips(o_.threshold);
+        checkpoint("flips", 1);
+        return s;
+      }
       case ImproveMode::Combined: return combined();
       case ImproveMode::Best: return best();
     }
@@ -147,15 +184,21 @@ class Driver {
   // until Phi is empty, nothing changes, or `iterations` rounds.
   Status combined() {
     for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
+      round_ = round + 1;
       const int64_t poor = count_below(o_.threshold);
       progress("round " + std::to_string(round + 1) + ": " + std::to_string(poor) + " tets with alpha < " +
                std::to_string(o_.threshold));
       if (poor == 0) break;
       const int64_t before_ops = ops();
       if (Status s = algorithm4(/*strict=*/round > 0, o_.threshold); !s) return s;
+      if (!checkpoint("all-boundary", 0.5)) {
+        r_.rounds = round + 1;
+        break;
+      }
       const int64_t before_moves = r_.smooth_moves;
       smooth(smooth_opts(o_.threshold, 1, o_.maxmin_optimizer, o_.seed + static_cast<uint64_t>(round)));
       r_.rounds = round + 1;
+      if (!checkpoint("smooth", 1)) break;
       if (ops() == before_ops && r_.smooth_moves == before_moves) break;
     }
     return Status::success();
@@ -221,6 +264,7 @@ class Driver {
       r_.smooth_tried += rs.moves + rs.put_back;
       r_.seconds_smooth += since(t);
       if (!rs.status) return rs.status;
+      if (!checkpoint("relax")) return Status::success();
     }
     double gamma = o_.threshold;
     double prev_worst = worst();
@@ -230,10 +274,18 @@ class Driver {
     bool capped = false;  // gamma was last raised to the widest affordable set, not by 0.1
     for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
       if (round > 0) refresh_guard();
+      round_ = round + 1;
       progress("round " + std::to_string(round + 1) + ": worst alpha " + std::to_string(prev_worst));
+      // A stop between phases ends the run there (rounds counts the round
+      // begun): every phase leaves a valid mesh.
+      constexpr double kPhases = 6;
+      r_.rounds = round + 1;
       if (Status s = algorithm4(true, gamma); !s) return s;
+      if (!checkpoint("all-boundary", 1 / kPhases)) return Status::success();
       if (Status s = flips(gamma); !s) return s;
+      if (!checkpoint("flips", 2 / kPhases)) return Status::success();
       if (Status s = pairs(gamma); !s) return s;
+      if (!checkpoint("pairs", 3 / kPhases)) return Status::success();
       // Insertion (--allow-insert) aims at the worst tets only: those below
       // min(gamma, worst alpha + kInsertBand).  It stops when a pass inserts
       // nothing and starts again when gamma rises.  On the demo impeller
@@ -258,10 +310,12 @@ class Driver {
         r_.seconds_topo += since(t);
         if (!is.status) return is.status;
         if (is.inserted + is.removed == 0) insert_live = false;
+        if (!checkpoint("insert", 3.5 / kPhases)) return Status::success();
       }
       smooth(smooth_opts(gamma, 3, false, o_.seed + static_cast<uint64_t>(round)));
+      if (!checkpoint("smooth", 4.5 / kPhases)) return Status::success();
       smooth(smooth_opts(gamma, 3, true, o_.seed + static_cast<uint64_t>(round)));
-      r_.rounds = round + 1;
+      if (!checkpoint("smooth-maxmin", 1)) return Status::success();
       const double w = worst();
       // A round that does not raise the worst alpha raises gamma, so the next
       // round works on a wider set of tets (flips and moves around the worst
@@ -317,6 +371,7 @@ class Driver {
       d.rebuild_stars = false;
       d.objective = o_.objective;
       d.guard = guard_;
+      d.stop = stop_;
       d.alpha_floor = worst();
       d.alpha_keep = kDihedralAlphaKeep;
       d.angle_keep = kDihedralAngleKeep;
@@ -325,6 +380,8 @@ class Driver {
       add(st, since(t));
       r_.vertex_moves += st.vertex_moves;
       if (!st.status) return st.status;
+      round_ = 0;
+      checkpoint("dihedral", 1);
     }
     return Status::success();
   }
@@ -378,6 +435,8 @@ class Driver {
     if (other) alpha_.clear();
     const double mean = mean_alpha();
     r_.seconds_polish = since(t);
+    round_ = 0;
+    checkpoint("polish", 1);
     if (log_)
       log_(LogLevel::Debug, "mean polish: mean alpha " + std::to_string(mean_before) + " -> " + std::to_string(mean) +
                                 " in " + std::to_string(r_.seconds_polish) + " s");
@@ -482,6 +541,10 @@ class Driver {
   const LogFn& log_;
   LogFn sub_log_;
   const std::atomic<bool>* stop_;
+  bool cancelled_ = false;  // the progress callback returned false
+  int round_ = 0;           // 1-based round for ImproveProgress, 0 outside the rounds
+  double last_worst_ = NAN;
+  double last_fraction_ = 0;  // ImproveProgress::fraction never falls
   int threads_;
   Guard* guard_;
   std::vector<double> alpha_;  // tet_alpha of every tet when its size is nt (see ensure_cache)
@@ -544,8 +607,8 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
   Driver d(m, opt, rep, log, interrupted, opt.guard ? &guard : nullptr);
   // The topology passes run without rebuilding the vertex stars after each
   // (TopoOptions::rebuild_stars); the caller gets them built, error or not.
-  Status run_status = d.run();
-  if (run_status && opt.guard && opt.mode == ImproveMode::Best) {
+  Status run_status = d.checkpoint("start") ? d.run() : Status::success();
+  if (run_status && opt.guard && opt.mode == ImproveMode::Best && !d.stopped()) {
     ensure_vertex_tets(m, opt.threads);
     d.polish_mean(rep.before.alpha_mean, opt.polish);
   }
@@ -560,6 +623,14 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
     rep.guard_refused[static_cast<size_t>(k)] = guard.refused(static_cast<Measure>(k));
   }
   if (!run_status) return run_status;
+  rep.stopped_early = d.stopped();
+  // An abort (`interrupted`): a valid mesh the caller discards, as soon as
+  // possible: no proof, no after statistics.
+  if (d.aborted()) {
+    rep.seconds_total = since(t0);
+    return Status::error(ErrorCode::Stopped, "interrupted; the mesh is valid but not checked again");
+  }
+  if (!rep.stopped_early) d.checkpoint("done");
 
   if (opt.check_invariants) {
     const auto tc = Clock::now();
@@ -576,6 +647,9 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
     if (Status s = compact_vertices(m, rep.removed_vertices); !s) return s;
   rep.after = compute_stats(m, opt.threads);
   rep.seconds_total = since(t0);
+  if (rep.stopped_early)
+    return Status::error(ErrorCode::Stopped, "stopped early at the caller's request after " +
+                                                 std::to_string(rep.rounds) + " rounds; the mesh is valid");
   return Status::success();
 }
 
@@ -644,6 +718,7 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   j << "},\n";
   j << "  \"seconds\": {\"total\": " << num(r.seconds_total) << ", \"smoothing\": " << num(r.seconds_smooth)
     << ", \"topology\": " << num(r.seconds_topo) << ", \"invariant_check\": " << num(r.seconds_check) << ", \"mean_polish\": " << num(r.seconds_polish) << "},\n";
+  j << "  \"stopped_early\": " << (r.stopped_early ? "true" : "false") << ",\n";
   j << "  \"boundary_unchanged\": {\"checked\": " << (r.invariants_checked ? "true" : "false")
     << ", \"ok\": " << (r.invariants_ok ? "true" : "false") << ", \"message\": " << json_string(r.invariant_message)
     << "}\n}\n";

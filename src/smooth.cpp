@@ -808,7 +808,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
     }
   };
 
-  for (int phase = 0; phase < (o.all_vertices ? 2 : 1); ++phase) {
+  for (int phase = 0; phase < (o.all_vertices ? 2 : 1) && !(o.stop && o.stop->load()); ++phase) {
     active.clear();
     ++epoch;
     if (phase == 0) {
@@ -826,7 +826,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
       for (int32_t u = 0; u < nv; ++u)
         if (is_free(u)) active.push_back(u);
     }
-    for (int sweep = 0; sweep < o.iterations && !active.empty(); ++sweep) {
+    for (int sweep = 0; sweep < o.iterations && !active.empty() && !(o.stop && o.stop->load()); ++sweep) {
       // Fisher-Yates with the engine's raw output (portable, unlike std::shuffle).
       for (size_t i = active.size(); i > 1; --i) std::swap(active[i - 1], active[rng() % i]);
       // Greedy colouring in the shuffled order: each vertex takes the
@@ -861,7 +861,14 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
       result.assign(order.size(), 0);
       reactivate.assign(order.size(), 0);
 
+      // o.stop (an abort): the pass ends between two classes; the classes
+      // visited are counted.
+      size_t visited = order.size();
       for (int c = 0; c < ncolours; ++c) {
+        if (o.stop && o.stop->load(std::memory_order_relaxed)) {
+          visited = static_cast<size_t>(class_start[c]);
+          break;
+        }
         const int64_t b = class_start[c], n = class_start[c + 1] - b;
         auto visit_class = [&](int64_t i) { visit(b + i); };
         if (threads > 1 && n >= 64) get_pool().run(n, 8, visit_class);
@@ -870,7 +877,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
 
       moved.clear();
       int64_t applied_now = 0;
-      for (size_t i = 0; i < order.size(); ++i) {
+      for (size_t i = 0; i < visited; ++i) {
         st.moves_tried += result[i] != static_cast<uint8_t>(SmoothResult::BoundaryLocked);
         switch (static_cast<SmoothResult>(result[i])) {
           case SmoothResult::Applied:
@@ -892,6 +899,7 @@ SmoothStats smooth_pass(TetMesh& m, const SmoothOptions& o, const LogFn& log, st
                       moved.size(), worst_of_cache());
         log(LogLevel::Progress, buf);
       }
+      if (visited < order.size()) break;  // stopped
       if (moved.empty()) break;  // nothing (worth re-visiting) changed
       // The free vertices of the moved vertices' stars, each once; in phase
       // 0 only those touching a poor tet.  That test reads a star's cached

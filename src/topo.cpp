@@ -1433,6 +1433,11 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t, int reach) {
   return TopoResult::Applied;
 }
 
+namespace {
+// TopoOptions::stop (an abort) is set.
+inline bool halted(const TopoOptions& o) { return o.stop && o.stop->load(std::memory_order_relaxed); }
+}  // namespace
+
 int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, bool kind4_only, double threshold) {
   auto eligible = [&](int32_t t) {
     return alive(t) && (!kind4_only || m_.tet_kind[t] == 4) && below(t, threshold);
@@ -1509,7 +1514,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
     std::vector<size_t> redo;
     size_t win = W;
     arena.execute([&] {
-      for (size_t n = 0; w0 < work.size(); w0 += n) {
+      for (size_t n = 0; w0 < work.size() && !halted(o_); w0 += n) {
         if (win == 0) {  // a serial stretch
           n = std::min(kSerial, work.size() - w0);
           for (size_t i = 0; i < n; ++i) {
@@ -1563,8 +1568,10 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
     return changed;
   }
 #endif
-  for (const int32_t t : work)
+  for (const int32_t t : work) {
+    if (halted(o_)) break;
     if (eligible(t) && improve_tet(t, strict) == TopoResult::Applied) ++changed;
+  }
   return changed;
 }
 
@@ -1725,7 +1732,7 @@ TopoStats run_passes(TetMesh& m, const TopoOptions& o, const LogFn& log, PassKin
         log(LogLevel::Info, std::string(kind == PassKind::AllBoundary ? "topo all-boundary" : "topo flip") +
                                 " pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
                                 " tets visited, " + std::to_string(changed) + " operations applied");
-      if (changed == 0) break;
+      if (changed == 0 || halted(o)) break;
     }
     st.alpha_worst_after = ed.min_cached();
     ed.finish();
@@ -1763,6 +1770,7 @@ TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t 
       if (max_tets >= 0 && static_cast<int64_t>(work.size()) > max_tets) work.resize(max_tets);
       int64_t changed = 0, visited = 0;
       for (const int32_t t : work) {
+        if (halted(o)) break;
         if (!ed.alive(t) || !ed.below(t, thr)) continue;
         ++visited;
         if (ed.improve_tet_pair(t) == TopoResult::Applied) {
@@ -1785,7 +1793,7 @@ TopoStats pair_flip_pass(TetMesh& m, const TopoOptions& o, double band, int64_t 
       // stop_at_worst: another pass only after one that raised the worst
       // alpha (the band moves up with it).
       const double w = ed.min_cached();
-      if (changed == 0 || (stop_at_worst && !(w > worst + o.margin))) break;
+      if (changed == 0 || halted(o) || (stop_at_worst && !(w > worst + o.margin))) break;
       worst = w;
     }
     st.alpha_worst_after = ed.min_cached();
@@ -1936,7 +1944,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
   TopoStats total;
   int64_t moves = 0;
   std::optional<TopoEditor> evaluator;
-  for (int round = 0; round < std::max(1, d.passes); ++round) {
+  for (int round = 0; round < std::max(1, d.passes) && !halted(d); ++round) {
     TopoStats st = run_passes(m, d, log, PassKind::Quality, nullptr);
     if (!st.status) return st;
     if (round == 0) {
@@ -1956,7 +1964,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
       evaluator.emplace(m, d);  // measure evaluator (no edits: finish() is a no-op)
       TopoEditor& q = *evaluator;
       std::vector<uint8_t> seen(m.nv(), 0);
-      for (int32_t t = 0; t < m.nt(); ++t) {
+      for (int32_t t = 0; t < m.nt() && !halted(d); ++t) {
         if (!q.below(t, d.quality_threshold)) continue;
         for (int k = 0; k < 4; ++k) {
           const int32_t v = m.tet(t)[k];

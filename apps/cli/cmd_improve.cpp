@@ -81,8 +81,9 @@ static const char* kImproveHelp =
     "                       neighbours, 3 improvable) and alpha_bound\n"
     "  --html FILE.html     write a self-contained HTML report: before/after histograms\n"
     "                       of alpha and dihedral angles, statistics, time per phase,\n"
-    "                       operation counts, diagnosis, the boundary verdict\n"
-    "  --msh-version V      22 or 41 for .msh output    --binary  binary .msh/.vtk\n"
+    "                       operation counts, diagnosis, the boundary verdict, a 3D\n"
+    "                       view of the poor tets before and after (docs/report.md)\n"
+    "  --msh-version V      22 or 41 (Gmsh), fluent     --binary  binary .msh/.vtk/polyMesh\n"
     "  --meshb-version V    2, 3 (default) or 4 for .meshb output\n"
     "  --allow-insert       (mode best only) may insert new free vertices inside the\n"
     "                       volume; existing vertices keep their ids.  Off by default\n"
@@ -98,7 +99,13 @@ static const char* kImproveHelp =
     "                       Morton order of their centroids: faster (the passes walk\n"
     "                       neighbours in cache), a different, equally checked\n"
     "                       result; the report's tets_reordered says so\n"
-    "  --keep-order         keep IN's tet order (wins over --reorder-above)\n"
+    "  --write-boundary     list the boundary and interface triangles IN does not list,\n"
+    "                       as groups boundary_REGION and interface_A_B with new refs\n"
+    "                       (for OpenFOAM patches / faceZones, Fluent zones, Abaqus\n"
+    "                       surfaces from a mesh without boundary triangles)\n"
+    "  --keep-order         keep IN's tet order (wins over --reorder-above) and the\n"
+    "                       order improve leaves: without it the tets of each region\n"
+    "                       are put together (one Gmsh block per entity)\n"
     "  -q, --quiet          print nothing but errors    -v, --verbose  more detail\n"
     "  --                   ends the options: IN may start with '-'\n"
     "\n"
@@ -145,6 +152,10 @@ int cmd_improve(const std::vector<std::string>& args) {
   TetMesh m;
   std::vector<int32_t> order;  // order[id] = id in IN, when the tets were put in Morton order
   if (!load_mesh(in, m, quiet, opt.threads, &order, a.keep_order ? -1 : a.reorder_above)) return kExitInput;
+  if (a.write_boundary && add_boundary_triangles(m) > 0) {
+    const Status s0 = build_topology(m, opt.threads);  // the new triangles are constrained faces already; classify lists them
+    if (!s0) { std::fprintf(stderr, "tetopt: %s: %s\n", shown(in).c_str(), shown(s0.message).c_str()); return kExitInput; }
+  }
   if (verbose && !order.empty())
     std::fprintf(stderr, "tets put in Morton order of their centroids (IN's order is scattered; --keep-order keeps it)\n");
   // What improve's caches and passes add to the heap: 47-135 bytes per tet
@@ -157,10 +168,22 @@ int cmd_improve(const std::vector<std::string>& args) {
   }
   const std::vector<std::string> dropped = warn_dropped(out, m, wo, quiet);
   const bool tty = stderr_is_tty() && !quiet;
+  // The progress line (a terminal only) comes from the library's progress
+  // callback (ImproveOptions::progress), the one Python's improve(progress=)
+  // gets; the passes' own progress messages are left to it.
+  if (tty)
+    opt.progress = [obj = objective_name(opt.objective)](const ImproveProgress& p) {
+      if (p.round > 0)
+        std::fprintf(stderr, "round %d, %s: %3.0f%%, worst %s %.4f\033[K\r", p.round, p.phase, 100 * p.fraction, obj,
+                     p.worst);
+      else
+        std::fprintf(stderr, "%s: %3.0f%%, worst %s %.4f\033[K\r", p.phase, 100 * p.fraction, obj, p.worst);
+      return true;
+    };
   LogFn log = [&](LogLevel lvl, const std::string& msg) {
     if (quiet) return;
     if (lvl == LogLevel::Progress) {
-      if (tty) std::fprintf(stderr, "%s\033[K\r", msg.c_str());
+      return;
     } else if (lvl == LogLevel::Warning) {
       std::fprintf(stderr, "warning: %s\n", msg.c_str());
     } else if (lvl == LogLevel::Info || verbose) {
@@ -171,17 +194,27 @@ int cmd_improve(const std::vector<std::string>& args) {
   TetValueMap alpha_before;
   if (!field.empty()) alpha_before = TetValueMap(m, compute_fields(m).alpha);
   QualityHistograms hist_before;
-  if (!html.empty()) hist_before = quality_histograms(m);
+  ViewTets view_before;  // the 3D view's "before": the input's poor tets, numbered as in IN
+  if (!html.empty()) {
+    hist_before = quality_histograms(m);
+    double origin[3];
+    view_origin(m, origin);
+    view_before = view_poor_tets(m, opt.threshold, HtmlReportInput{}.view_max_tets / 2, origin,
+                                 order.empty() ? nullptr : &order, opt.threads);
+  }
   // The report compares every measure of measures.hpp before and after,
   // the face measures (OpenFOAM's non-orthogonality and skewness, which the
   // guards do not hold per operation) included: two measure passes, only
   // when a report is asked for.
   MeasureStats measures_before;
   if (!report_path.empty()) measures_before = compute_measure_stats(m, opt.threads);
+  // IN's regions in IN's order, to put each one's tets together again after
+  // improve (issue 28); --keep-order keeps the order improve leaves.
+  const std::vector<RegionKey> regions = a.keep_order ? std::vector<RegionKey>{} : region_key_order(m, order.empty() ? nullptr : &order);
   ImproveReport rep;
   Status s = improve(m, opt, rep, log, &g_interrupted);
   if (tty) std::fputs("\033[K", stderr);
-  if (!s) {
+  if (!s && !s.stopped()) {
     std::fprintf(stderr, "tetopt: %s: %s\n", shown(in).c_str(), shown(s.message).c_str());
     if (s.code == ErrorCode::Invariant) {
       std::fputs("tetopt: invariant failure (a bug in tetopt): nothing written\n", stderr);
@@ -192,6 +225,20 @@ int cmd_improve(const std::vector<std::string>& args) {
   if (g_interrupted) {
     std::fputs("tetopt: interrupted; nothing written\n", stderr);
     return kExitInterrupted;
+  }
+  // The tets of one region together (one Gmsh block per entity, one Fluent
+  // cell zone), each region's in the order improve left them.
+  if (regions.size() > 1) {
+    std::vector<int32_t> new_id;
+    if (group_tets_by_region(m, regions, &new_id)) {
+      if (rep.after.worst_tet >= 0 && rep.after.worst_tet < static_cast<int32_t>(new_id.size()))
+        rep.after.worst_tet = new_id[static_cast<size_t>(rep.after.worst_tet)];
+      s = build_topology(m, opt.threads);
+      if (!s) {
+        std::fprintf(stderr, "tetopt: %s: %s\n", shown(in).c_str(), shown(s.message).c_str());
+        return kExitInvariant;
+      }
+    }
   }
   // The input's worst tet by its number in IN.
   if (!order.empty() && rep.before.worst_tet >= 0 && rep.before.worst_tet < static_cast<int32_t>(order.size()))
@@ -248,6 +295,8 @@ int cmd_improve(const std::vector<std::string>& args) {
     hin.options = &opt;
     hin.seconds_end_to_end = total;
     hin.diagnosis = &diag;
+    hin.mesh = &m;  // the 3D view, with the input's poor tets beside the output's
+    hin.poor_before = &view_before;
     s = write_html_report(html, hin);
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }

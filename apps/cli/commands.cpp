@@ -187,7 +187,8 @@ static const char* kQualityHelp =
     "                    neighbours, 3 improvable) and alpha_bound as cell data, for ParaView\n"
     "                    (VTK XML: the name must end in .vtu)\n"
     "  --html FILE       write a self-contained HTML report (histograms, tables,\n"
-    "                    diagnosis with the worst tets)\n"
+    "                    diagnosis with the worst tets, a 3D view of where the\n"
+    "                    tets below the threshold are: docs/report.md)\n"
     "  --threshold G     alpha below which a tet is diagnosed (default 0.3)\n"
     "  --threads K       worker threads for reading, the topology, the statistics and the\n"
     "                    diagnosis (default 0 = all cores; the same output for any K)\n"
@@ -269,6 +270,7 @@ int cmd_quality(const std::vector<std::string>& args) {
     hin.before = s;
     hin.before_hist = quality_histograms(m);
     hin.diagnosis = &diag;
+    hin.mesh = &m;  // the 3D view
     Status st = write_html_report(html, hin);
     if (!st) { std::fprintf(stderr, "tetopt: %s\n", shown(st.message).c_str()); return kExitOutput; }
     if (!quiet && !json) std::printf("wrote HTML report to %s\n", shown(html).c_str());
@@ -277,7 +279,8 @@ int cmd_quality(const std::vector<std::string>& args) {
 }
 
 static const char* kConvertHelp =
-    "usage: tetopt convert IN OUT [--msh-version 22|41] [--binary] [--meshb-version 2|3|4]\n"
+    "usage: tetopt convert IN OUT [--msh-version 22|41|fluent] [--binary] [--meshb-version 2|3|4]\n"
+    "                             [--write-boundary]\n"
     "                             [--threads K]\n"
     "\n"
     "Converts a tetrahedral mesh between formats, chosen by extension:\n"
@@ -292,7 +295,10 @@ static const char* kConvertHelp =
     "failure leaves no half file.\n"
     "\n"
     "options:\n"
-    "  --msh-version V   22 or 41 for .msh output (default 41)\n"
+    "  --write-boundary  list the boundary and interface triangles IN does not list, as\n"
+    "                    groups boundary_REGION and interface_A_B with new refs\n"
+    "  --msh-version V   22 or 41 for Gmsh .msh output (default 41), fluent for a Fluent\n"
+    "                    mesh (the default when IN is one)\n"
     "  --binary          binary .msh / .vtk output\n"
     "  --meshb-version V GMF version of .meshb output: 2, 3 (default) or 4\n"
     "  --threads K       worker threads for reading and writing (default 0 = all\n"
@@ -303,22 +309,28 @@ static const char* kConvertHelp =
 int cmd_convert(const std::vector<std::string>& args) {
   std::vector<std::string> pos;
   WriteOptions wo;
+  bool write_boundary = false;
   wo.threads = 0;  // all cores: the same bytes for any count
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     long long v = 0;
     if (a == "-h" || a == "--help") { std::fputs(kConvertHelp, stdout); return kExitOk; }
     if (a == "--binary") wo.binary = true;
+    else if (a == "--write-boundary") write_boundary = true;
     else if (a == "--threads") {
       if (!has_value(args, i, a) || !parse_int(a, args[++i], v)) return kExitUsage;
       if (v < 0 || v > 1024) { std::fputs("tetopt convert: --threads must be in 0..1024\n", stderr); return kExitUsage; }
       wo.threads = static_cast<int>(v);
+    } else if (a == "--msh-version" && i + 1 < args.size() && args[i + 1] == "fluent") {
+      ++i;
+      wo.msh = WriteOptions::Msh::Fluent;  // a Fluent mesh (issue 28)
     } else if (a == "--msh-version" || a == "--meshb-version") {
       if (!has_value(args, i, a) || !parse_int(a, args[i + 1], v)) return kExitUsage;
       ++i;
       if (a == "--msh-version") {
-        if (v != 22 && v != 41) { std::fputs("tetopt convert: --msh-version is 22 or 41\n", stderr); return kExitUsage; }
+        if (v != 22 && v != 41) { std::fputs("tetopt convert: --msh-version is 22, 41 or fluent\n", stderr); return kExitUsage; }
         wo.msh_version = static_cast<int>(v);
+        wo.msh = WriteOptions::Msh::Gmsh;
       } else {
         if (v < 2 || v > 4) { std::fputs("tetopt convert: --meshb-version is 2, 3 or 4\n", stderr); return kExitUsage; }
         wo.meditb_version = static_cast<int>(v);
@@ -340,6 +352,7 @@ int cmd_convert(const std::vector<std::string>& args) {
   OrientationReport orient;
   Status s = read_input(pos[0], m, &orient, wo.threads);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitInput; }
+  if (write_boundary) add_boundary_triangles(m);
   warn_dropped(pos[1], m, wo, false);
   s = write_mesh(pos[1], m, wo);
   if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }

@@ -142,6 +142,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     else if (o == "--binary") a.wo.binary = true;
     else if (o == "--no-check") a.opt.check_invariants = false;
     else if (o == "--keep-order") a.keep_order = true;
+    else if (o == "--write-boundary") a.write_boundary = true;
     else if (o == "--allow-insert") a.opt.allow_insert = true;
     else if (o == "--allow-remove") a.opt.allow_remove = true;
     else if (o == "--no-guard") a.opt.guard = false;
@@ -189,9 +190,15 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
       if (n < 0 || n > 1024) return bad("--threads must be in 0..1024");
       a.opt.threads = static_cast<int>(n);
     } else if (o == "--msh-version") {
-      if (!integer(n)) return R::Error;
-      if (n != 22 && n != 41) return bad("--msh-version is 22 or 41");
-      a.wo.msh_version = static_cast<int>(n);
+      if (i + 1 < args.size() && args[i + 1] == "fluent") {  // a Fluent mesh (issue 28)
+        ++i;
+        a.wo.msh = tetopt::WriteOptions::Msh::Fluent;
+      } else {
+        if (!integer(n)) return R::Error;
+        if (n != 22 && n != 41) return bad("--msh-version is 22, 41 or fluent");
+        a.wo.msh_version = static_cast<int>(n);
+        a.wo.msh = tetopt::WriteOptions::Msh::Gmsh;
+      }
     } else if (o == "--meshb-version") {
       if (!integer(n)) return R::Error;
       if (n < 2 || n > 4) return bad("--meshb-version is 2, 3 or 4");

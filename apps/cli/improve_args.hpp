@@ -30,6 +30,7 @@ struct ImproveArgs {
   // --reorder-above N; --keep-order wins over it (whatever the order given).
   int64_t reorder_above = 1000000;
   bool keep_order = false;
+  bool write_boundary = false;  ///< --write-boundary: list the unlisted boundary and interface triangles (issue 28)
 };
 
 /// An option of one executable only.  apply gets the value ("" for a flag)

@@ -448,6 +448,10 @@ int leader(const Args& a, int size) {
                                             return read_mesh(p, m, o, t);
                                           });
   if (!s) return give_up(s.message, kExitInput);
+  if (a.write_boundary && add_boundary_triangles(g) > 0) {  // issue 28
+    s = build_topology(g, kRank0Threads);
+    if (!s) return give_up(s.message, kExitInput);
+  }
   if (a.verbose && !order.empty())
     std::fprintf(stderr, "tets put in Morton order of their centroids (IN's order is scattered; --keep-order keeps it)\n");
   const double t_read = now() - t_start;

@@ -19,6 +19,16 @@
 // ..."> per bin and series (data-count = the count); the script sets
 // data-report-ready="1" on <html> when it has run.
 //
+// A "Where they are" view (view3d.hpp; issue 30), inside the diagnosis
+// section when HtmlReportInput::mesh is given: the boundary surface and the
+// poor tets drawn with three.js, which the library carries (inlined at build
+// time from node_modules, cmake/view3d.cmake), so the page still needs no
+// network.  Its data is one <script type="application/json" id="tv-data">;
+// the rows of the worst-tets table carry data-tet="ID" (0-based) and fly the
+// camera to their tet when clicked; the script sets data-view-ready="1" on
+// <html> after its first frame.  Built with TETOPT_VIEW3D=OFF, the section
+// says the view is not built in.
+//
 // Pure formatting: nothing here modifies a mesh or prints.
 #pragma once
 #include <cmath>
@@ -31,6 +41,7 @@
 #include "tetopt/mesh.hpp"
 #include "tetopt/quality.hpp"
 #include "tetopt/status.hpp"
+#include "tetopt/view3d.hpp"
 
 namespace tetopt {
 
@@ -65,6 +76,18 @@ struct HtmlReportInput {
   double seconds_end_to_end = NAN;  ///< reading + improving + writing (NaN: not shown)
   const Diagnosis* diagnosis = nullptr;
   size_t max_tets_listed = 50;      ///< rows of the worst-tets table
+  /// The 3D view: the mesh the diagnosis describes (after the run, for
+  /// improve), with its topology; null: no view.  Needs `diagnosis` too.
+  const TetMesh* mesh = nullptr;
+  /// improve: the input's tets below the threshold (view_poor_tets before
+  /// the run, ids in the input's numbering); null: no "before" in the view.
+  const ViewTets* poor_before = nullptr;
+  size_t view_surface_budget = 300000;  ///< boundary triangles drawn before decimating (view_surface)
+  /// Poor tets in the view, the worst first: all for one set, half each
+  /// when there is a "before" (the caller makes poor_before with half).
+  /// With the surface budget this bounds the page: about 7 MB of surface,
+  /// 6 MB of tets and 0.8 MB of three.js at most.
+  size_t view_max_tets = 50000;
 };
 
 /// The page as one string (UTF-8).

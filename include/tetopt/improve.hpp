@@ -19,6 +19,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "tetopt/guard.hpp"
@@ -30,6 +31,27 @@
 namespace tetopt {
 
 enum class ImproveMode { Smooth, Topo, Combined, Best };
+
+/// Where a run stands, handed to ImproveOptions::progress at every phase
+/// boundary (the same points the run may stop at).
+struct ImproveProgress {
+  /// "start", "relax", "all-boundary", "flips", "pairs", "insert",
+  /// "smooth", "smooth-maxmin", "dihedral", "polish" (each once it has
+  /// run), "done" (before the final check).
+  const char* phase = "start";
+  int round = 0;          ///< 1-based round of the loop, 0 outside the rounds
+  /// A rough share of the run done, 0..1: (rounds done + phases done in this
+  /// round / phases of a round) / iterations.  Mode best usually converges
+  /// before `iterations` rounds, so it jumps to 1 at "done".
+  double fraction = 0;
+  /// The worst q of the objective (alpha by default) as the driver last saw
+  /// it (its cache is not refilled for this; NaN before it is first known).
+  double worst = NAN;
+};
+/// Progress callback: return false to stop the run at this point; improve()
+/// then returns ErrorCode::Stopped with a valid mesh.  Called on the thread
+/// that called improve(), never concurrently.
+using ProgressFn = std::function<bool(const ImproveProgress&)>;
 
 struct ImproveOptions {
   ImproveMode mode = ImproveMode::Best;
@@ -74,6 +96,8 @@ struct ImproveOptions {
   /// extremes, so that a part whose own worst tets are better is not held
   /// to them.
   std::array<double, kTetMeasureCount> guard_floor = {NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
+  /// Called at every phase boundary (ImproveProgress); empty: none.
+  ProgressFn progress;
 };
 
 /// What a run did.
@@ -109,11 +133,23 @@ struct ImproveReport {
   std::array<double, kTetMeasureCount> guard_extreme{};
   std::array<int64_t, kTetMeasureCount> guard_refused{};
   int guard_takes = 0;  ///< times the extremes were taken (the input, then each time one improved)
+  /// The run stopped early at the caller's request (improve() returned
+  /// ErrorCode::Stopped); the mesh is valid.
+  bool stopped_early = false;
 };
 
 /// Improves m in place.  Requires build_topology(m); leaves it current.
-/// `interrupted`, when given, is polled between operations; a run that stops
-/// early returns a valid mesh with Status ok and report.rounds so far.
+/// Stopping early: when opt.progress returns false, the run stops at that
+/// phase boundary, still runs the final check (opt.check_invariants) and the
+/// after statistics, and returns ErrorCode::Stopped (Status::stopped(),
+/// Status::mesh_valid()) with report.stopped_early.  `interrupted`, when
+/// given, is an abort (Ctrl-C): polled between phases and inside the passes
+/// (between colour classes of a smoothing sweep, windows of flips, single
+/// operations), so the run returns within one of those; it also returns
+/// ErrorCode::Stopped with a valid mesh (every committed operation keeps the
+/// invariants) but skips the final proof and the after statistics
+/// (report.invariants_checked is false): the caller is expected to discard
+/// the mesh, as `tetopt improve` does (exit 130, nothing written).
 Status improve(TetMesh& m, const ImproveOptions& opt, ImproveReport& report, const LogFn& log = {},
                const std::atomic<bool>* interrupted = nullptr);
 

@@ -2,9 +2,15 @@
 //
 // Formats, chosen by file extension (format_from_path):
 //   .mesh / .meshb    Medit / GMF, ASCII and binary (versions 1-4)
-//   .msh              Gmsh 2.2 and 4.1, ASCII and binary
+//   .msh              Gmsh 2.2 and 4.1, ASCII and binary; ANSYS Fluent mesh,
+//                     ASCII and binary (told apart by content: a Fluent file
+//                     starts with '(', a Gmsh file with "$MeshFormat")
 //   .vtk / .vtu       VTK legacy (ASCII and binary) and XML UnstructuredGrid
 //   .node / .ele      TetGen (.face and region attributes read when present)
+//   .inp              Abaqus / CalculiX input: nodes, C3D4, sets, surfaces
+//   .../polyMesh      OpenFOAM polyMesh folder (a path ending in "polyMesh",
+//                     or any folder holding an `owner` file or a case's
+//                     constant/polyMesh), ASCII and binary
 //
 // Readers parse from a byte span, so tests and fuzzers need no files, and
 // never trust a count before the data is shown to exist (a lying count ends
@@ -27,18 +33,36 @@
 
 namespace tetopt {
 
-enum class Format { Unknown, Medit, MeditBinary, Gmsh, Vtk, Vtu, TetGen };
+enum class Format { Unknown, Medit, MeditBinary, Gmsh, Vtk, Vtu, TetGen, OpenFoam, Fluent, Abaqus };
+
+/// The files of an OpenFOAM polyMesh folder, in the order parse_openfoam
+/// and format_openfoam take them (the last three are optional on read).
+inline constexpr const char* kFoamFileNames[8] = {"points",   "faces",     "owner",     "neighbour",
+                                                  "boundary", "cellZones", "faceZones", "pointZones"};
+
+/// The polyMesh folder a path names for reading: the path itself when it
+/// ends in "polyMesh" or holds an `owner` file, PATH/constant/polyMesh when
+/// that holds one (a case folder); empty otherwise.
+std::string openfoam_dir(const std::string& path);
 
 /// Format from the extension (.mesh .meshb .msh .vtk .vtu .node .ele; a
-/// trailing .gz is not supported and gives Unknown).
+/// trailing .gz is not supported and gives Unknown); OpenFoam for a path
+/// ending in "polyMesh" (or "polyMesh/") and for a folder openfoam_dir
+/// accepts.
 Format format_from_path(const std::string& path);
 
 struct WriteOptions {
   int msh_version = 41;       ///< 22 or 41 for .msh
-  bool binary = false;        ///< binary .msh / .vtk; .meshb is always binary
+  bool binary = false;        ///< binary .msh / .vtk / polyMesh; .meshb is always binary
   int meditb_version = 3;     ///< GMF version for .meshb: 2 (32-bit ints), 3 or 4 (64-bit)
   int threads = 1;            ///< .mesh: format lines on this many threads, 0 = all cores (same bytes for any count)
+  /// What a .msh output is: Auto writes Fluent when the mesh was read from a
+  /// Fluent file (TetMesh::source_format), Gmsh otherwise.
+  enum class Msh { Auto, Gmsh, Fluent } msh = Msh::Auto;
 };
+
+/// Whether write_mesh writes a .msh path as a Fluent mesh (see WriteOptions::msh).
+bool msh_is_fluent(const TetMesh& m, const WriteOptions& opt);
 
 /// Parses `data` (the bytes of a file named `name`, used in messages) into m's
 /// primary arrays.  For TetGen, `data` is the .node file and `aux` maps
@@ -55,6 +79,14 @@ Status parse_vtu(std::string_view data, const std::string& name, TetMesh& m);
 /// node, ele: required; face: may be empty.
 Status parse_tetgen(std::string_view node, std::string_view ele, std::string_view face,
                     const std::string& name, TetMesh& m);
+/// files: the 8 files of kFoamFileNames (boundary may be empty when there
+/// are no boundary faces, the zone files when absent); dir names them in
+/// messages ("DIR/faces:12: ...").  Patches, zones: see docs/formats.md.
+Status parse_openfoam(const std::string_view* files, const std::string& dir, TetMesh& m);
+/// A Fluent .msh (ASCII or binary sections); zones: see docs/formats.md.
+Status parse_fluent(std::string_view data, const std::string& name, TetMesh& m);
+/// An Abaqus / CalculiX .inp: *NODE, *ELEMENT TYPE=C3D4, *ELSET, *NSET, *SURFACE.
+Status parse_abaqus(std::string_view data, const std::string& name, TetMesh& m);
 
 /// Serialises m in the given format into `out` (bytes).  For TetGen, out is
 /// the .node text and out_ele / out_face receive the other files.
@@ -72,6 +104,14 @@ Status format_gmsh(const TetMesh& m, std::string& out, int version, bool binary)
 Status format_vtk(const TetMesh& m, std::string& out, bool binary);
 Status format_vtu(const TetMesh& m, std::string& out);
 Status format_tetgen(const TetMesh& m, std::string& node, std::string& ele, std::string& face);
+/// out: 8 strings, the files of kFoamFileNames (all written, zone files
+/// with no zones too, so that no stale file of an earlier mesh stays).
+Status format_openfoam(const TetMesh& m, std::string* out, bool binary);
+/// A Fluent .msh: ASCII, or binary sections (3010 / 3013, doubles and 32-bit ints).
+Status format_fluent(const TetMesh& m, std::string& out, bool binary);
+/// An Abaqus / CalculiX .inp (element sets per tet ref, node sets per vertex
+/// ref, an element surface per triangle ref).
+Status format_abaqus(const TetMesh& m, std::string& out);
 
 /// Reads a file: format by extension (a .ele path reads its .node sibling
 /// and vice versa), parse, check_arrays, then normalize_orientation.  The

@@ -36,8 +36,10 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "tetopt/attachment.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/status.hpp"
 
@@ -100,6 +102,10 @@ struct TetMesh {
   /// format's native convention (positive for all, TetGen .ele included).
   bool flipped_on_read = false;
   int source_format = 0;  ///< tetopt::Format the mesh was read from (io.hpp), 0 unknown
+  /// What the file said about its groups beyond refs and names (OpenFOAM
+  /// patch types, Fluent zone types): attachment.hpp.  The one place for
+  /// format-specific extras; nothing in it is needed to improve the mesh.
+  Attachment attachment;
 
   // ---- derived topology (build_topology) ----
   std::vector<int32_t> vt_offsets;     ///< nv+1
@@ -199,6 +205,36 @@ Status refresh_topology(TetMesh& m, int32_t first_new, int threads = 1);
 /// of the passes does.  Same permutation for every thread count.  order
 /// (optional): order[new id] = old id.
 void sort_tets_spatially(TetMesh& m, int threads = 1, std::vector<int32_t>* order = nullptr);
+
+/// A region as the writers store it: (tet_ref, Gmsh entity tag or 0).
+using RegionKey = std::pair<int32_t, int32_t>;
+
+/// The regions of m in the order their first tets appear; with `order`
+/// (order[id] = the tet's number in the file, as sort_tets_spatially gives
+/// it) in the file's order.  For group_tets_by_region after improve.
+std::vector<RegionKey> region_key_order(const TetMesh& m, const std::vector<int32_t>* order = nullptr);
+
+/// Puts the tets of one region together (issue 28: a Gmsh 4.1 file then has
+/// one element block per entity, and a Fluent file needs it anyway): a
+/// stable sort by the rank of each tet's region in `keys` (regions not in
+/// it after, in order of appearance), so the tets of one region keep their
+/// order.  Returns whether any tet moved; the topology arrays are then
+/// cleared (call build_topology after).  new_id (optional): new_id[old id]
+/// = new id.  The same permutation for every thread count.
+bool group_tets_by_region(TetMesh& m, const std::vector<RegionKey>& keys, std::vector<int32_t>* new_id = nullptr);
+
+/// Lists the boundary and interface triangles m does not list yet (issue 28,
+/// `--write-boundary`), so that a format that names groups of faces
+/// (OpenFOAM patches and faceZones through gmshToFoam, Fluent zones, Abaqus
+/// surfaces) gets real ones from a file that had none: the faces on one tet
+/// of region r become the group "boundary_R", the faces between regions
+/// a < b the group "interface_A_B" (R, A, B: the region's physical name, or
+/// its ref), each with a new tri ref above every ref and dim-2 physical
+/// tag in use, boundaries first, then interfaces, by ascending refs: the
+/// same refs and names for the same mesh whatever its tet order.  A face
+/// is listed as the face of its first tet (lowest id), facing out of it.
+/// Returns the number of triangles added.  Needs no topology.
+int32_t add_boundary_triangles(TetMesh& m);
 
 /// How far apart consecutive tets lie: the mean distance between the
 /// centroids of tets t and t+1, over the mean length of the edge between

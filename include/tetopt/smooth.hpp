@@ -92,6 +92,7 @@
 // connectivity since.  Tets should be positive; a vertex whose star contains
 // a flat or inverted tet (f infinite) is left where it is (Inverted).
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -148,6 +149,10 @@ struct SmoothOptions {
   /// the star at the new position is worse than the guard's extremes on a
   /// guarded measure.  Not owned; nullptr: no guard.
   const Guard* guard = nullptr;
+  /// Abort flag (improve()'s `interrupted`): once set, the pass ends
+  /// between two colour classes of a sweep (every committed move kept).
+  /// Not owned; nullptr: never.
+  const std::atomic<bool>* stop = nullptr;
 };
 
 /// Counters and measurements of one smooth_pass.

@@ -19,6 +19,11 @@ enum class ErrorCode {
   Unsupported,  ///< format, version or feature tetopt does not handle
   Invariant,    ///< an internal invariant failed (a bug): nothing is written
   OutOfMemory,  ///< the input (or the output being built) needs more memory than there is
+  /// Not a failure, not a success: improve() stopped early at the caller's
+  /// request (ImproveOptions::progress returned false, or `interrupted` was
+  /// set).  The mesh is valid (every committed operation keeps the
+  /// invariants) and may be used; ImproveReport::stopped_early says so too.
+  Stopped,
 };
 
 struct Status {
@@ -27,6 +32,10 @@ struct Status {
   long line = 0;        ///< 1-based line or record number, 0 when not applicable
 
   bool ok() const { return code == ErrorCode::Ok; }
+  /// Stopped early at the caller's request, mesh valid (ok() is false).
+  bool stopped() const { return code == ErrorCode::Stopped; }
+  /// The mesh may be used: success, or stopped early.
+  bool mesh_valid() const { return ok() || stopped(); }
   explicit operator bool() const { return ok(); }
 
   static Status success() { return {}; }

@@ -59,6 +59,7 @@
 // pass touches only the tets it is told to (kind 4, or alpha below a
 // threshold) plus O(nt) for the alpha cache and the final rebuild.
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -104,6 +105,10 @@ struct TopoOptions {
   /// committed only if every tet it creates passes Guard::admits.  Not
   /// owned; nullptr: no guard.
   const Guard* guard = nullptr;
+  /// Abort flag (improve()'s `interrupted`): once set, a pass ends between
+  /// two operations or windows of planned ones (every committed one kept).
+  /// Not owned; nullptr: never.
+  const std::atomic<bool>* stop = nullptr;
   /// A new tet with alpha below this counts as unacceptable (-inf) whatever
   /// the measure: set it to the mesh's worst alpha to make a dihedral pass
   /// that never lowers the worst alpha.

@@ -48,6 +48,7 @@ __all__ = [
     "Mesh",
     "improve",
     "improve_mesh",
+    "improve_meshio",
     "quality",
     "read",
     "write",
@@ -59,6 +60,8 @@ __all__ = [
 __version__: str = _tetopt.__version__
 
 LogCallback = Callable[[str, str], Any]
+#: progress(phase, round, fraction, worst) -> False to stop (None or True go on)
+ProgressCallback = Callable[[str, int, float, float], Any]
 PathLike = Union[str, "os.PathLike[str]"]
 
 
@@ -131,6 +134,15 @@ class Mesh:
         (shapes, dtypes, index ranges, finite coordinates)."""
         _tetopt.validate_mesh(self._as_dict())
 
+    @classmethod
+    def from_meshio(cls, m: Any, ref_key: Optional[str] = None) -> "Mesh":
+        """A Mesh from a ``meshio.Mesh``: :func:`from_meshio`."""
+        return from_meshio(m, ref_key)
+
+    def to_meshio(self) -> Any:
+        """This mesh as a ``meshio.Mesh``: :func:`to_meshio`."""
+        return to_meshio(self)
+
     def __repr__(self) -> str:
         def n(a: Any) -> int:
             return 0 if a is None else len(a)
@@ -181,6 +193,15 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
     return o
 
 
+def _check_callable(name: str, f: Any) -> None:
+    if f is not None and not callable(f):
+        raise ValueError(f"{name}: expected a callable or None, got {f!r}")
+
+
+def _is_meshio(m: Any) -> bool:
+    return hasattr(m, "cells") and hasattr(m, "points") and hasattr(m, "cell_data") and not isinstance(m, Mesh)
+
+
 def _with_diagnosis(js: str, dj: Optional[str]) -> Dict[str, Any]:
     report: Dict[str, Any] = json.loads(js)
     if dj is not None:
@@ -196,7 +217,7 @@ def _with_diagnosis(js: str, dj: Optional[str]) -> Dict[str, Any]:
 
 def improve(
     points: Any,
-    tets: Any,
+    tets: Any = None,
     refs: Any = None,
     *,
     mode: str = "best",
@@ -215,8 +236,13 @@ def improve(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
-) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[str, Any]]:
+    progress: Optional[ProgressCallback] = None,
+) -> Any:
     """Improves a tetrahedral mesh; returns ``(points, tets, refs, report)``.
+
+    ``improve(m)`` with a ``meshio.Mesh`` returns a new ``meshio.Mesh``
+    instead (the report in its ``info["tetopt_report"]``): see
+    :func:`improve_meshio`.
 
     Mirrors ``tetopt::improve`` (include/tetopt/improve.hpp) and ``tetopt
     improve``: constrained vertices never move (bit for bit), constrained
@@ -279,6 +305,17 @@ def improve(
             (``tetopt improve --no-guard``).
         polish: end with the guarded mean polish whatever the mean alpha
             (``tetopt improve --polish``): raises the mean, every worst kept.
+        progress: ``callable(phase, round, fraction, worst)`` called at every
+            phase boundary (``tetopt::ImproveOptions::progress``): phase
+            'start', 'relax', 'all-boundary', 'flips', 'pairs', 'insert',
+            'smooth', 'smooth-maxmin', 'dihedral', 'polish' or 'done';
+            round 1-based (0 outside the rounds); fraction a rough share of
+            the run done, 0..1; worst the current worst q of the objective
+            (NaN until known).  Returning False stops the run there: the
+            mesh comes back valid and checked, with
+            ``report["stopped_early"]`` True (otherwise False).  It runs on
+            the library's worker thread, with the GIL; an exception in it
+            stops the run and is re-raised.
 
     Returns:
         points: (n, 3) float64, the same vertices (constrained ones bit-identical;
@@ -299,15 +336,29 @@ def improve(
     Raises:
         ValueError: bad arguments or an invalid mesh (message names it).
         RuntimeError: an invariant failed (a bug in tetopt).
-        KeyboardInterrupt: Ctrl-C; checked between the driver's log messages.
+        KeyboardInterrupt: Ctrl-C.  The run goes on a worker thread; the
+            calling thread runs Python's signal handlers every 10 ms and on
+            Ctrl-C stops the library (polled between phases and inside the
+            passes), waits for the worker to end and raises: no thread is
+            left running (python/tests/test_interrupt.py measures it).
 
     The GIL is released while the library runs; the inputs are copied once
     into the library's own arrays and the outputs are handed over without a
     copy.
     """
+    if _is_meshio(points):
+        if tets is not None or refs is not None or constrained_faces is not None:
+            raise ValueError("improve(meshio_mesh) takes no other array arguments")
+        return improve_meshio(points, mode=mode, weight=weight, threshold=threshold, iterations=iterations,
+                              seed=seed, threads=threads, optimizer=optimizer, check=check, diagnose=diagnose,
+                              log=log, allow_insert=allow_insert, allow_remove=allow_remove, objective=objective,
+                              guard=guard, polish=polish, progress=progress)
+    if tets is None:
+        raise ValueError("tets: required (or pass a meshio.Mesh)")
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
                  allow_insert, allow_remove, objective, guard, polish)
-    p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log)
+    _check_callable("progress", progress)
+    p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log, progress)
     return p, t, r, _with_diagnosis(js, dj)
 
 
@@ -329,6 +380,7 @@ def improve_mesh(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    progress: Optional[ProgressCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole :class:`Mesh` (as :func:`read` returns it); returns ``(mesh, report)``.
 
@@ -342,7 +394,8 @@ def improve_mesh(
                  allow_insert, allow_remove, objective, guard, polish)
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
-    d, js, dj = _tetopt.improve_mesh(mesh._as_dict(), o, log)
+    _check_callable("progress", progress)
+    d, js, dj = _tetopt.improve_mesh(mesh._as_dict(), o, log, progress)
     return Mesh._from_dict(d), _with_diagnosis(js, dj)
 
 
@@ -450,7 +503,9 @@ def write(path: PathLike, mesh: Any, *, msh_version: int = 41, binary: bool = Fa
 
 # ---------------------------------------------------------------- meshio
 
-_REF_KEYS = ("medit:ref", "gmsh:physical", "cell_tags", "CellEntityIds", "tetgen:ref")
+_REF_KEYS = ("medit:ref", "gmsh:physical", "cell_tags", "CellEntityIds", "tetgen:ref", "ref")
+# meshio's own bookkeeping, not data of the mesh.
+_MESHIO_POINT_KEYS = ("medit:ref", "gmsh:dim_tags")
 
 
 def from_meshio(m: Any, ref_key: Optional[str] = None) -> Mesh:
@@ -459,7 +514,7 @@ def from_meshio(m: Any, ref_key: Optional[str] = None) -> Mesh:
     Takes the "tetra" cells (required), "triangle" cells as listed triangles
     and "line" cells as listed edges.  Refs come from ``cell_data[ref_key]``,
     by default the first of 'medit:ref', 'gmsh:physical', 'cell_tags',
-    'CellEntityIds', 'tetgen:ref' present; Gmsh entities from
+    'CellEntityIds', 'tetgen:ref', 'ref' (tetopt's VTK files) present; Gmsh entities from
     'gmsh:geometrical'; vertex refs from ``point_data['medit:ref']``; groups
     from ``field_data`` (name -> [tag, dim]); other point data is kept.
     Higher-order cells ('tetra10', ...) raise ValueError.
@@ -498,7 +553,8 @@ def from_meshio(m: Any, ref_key: Optional[str] = None) -> Mesh:
 
     if not parts["tetra"]:
         raise ValueError("the meshio mesh has no 'tetra' cells")
-    point_data = {k: np.asarray(v) for k, v in (getattr(m, "point_data", {}) or {}).items() if k != "medit:ref"}
+    point_data = {k: np.asarray(v) for k, v in (getattr(m, "point_data", {}) or {}).items()
+                  if k not in _MESHIO_POINT_KEYS}
     pr = (getattr(m, "point_data", {}) or {}).get("medit:ref")
     groups = []
     for name, v in (getattr(m, "field_data", {}) or {}).items():
@@ -564,6 +620,15 @@ def to_meshio(mesh: Any, tets: Any = None, refs: Any = None) -> Any:
     point_data = dict(mesh.point_data or {})
     if mesh.point_refs is not None and len(mesh.point_refs):
         point_data["medit:ref"] = np.asarray(mesh.point_refs)
+    # meshio's Gmsh 4.1 writer needs the entity (dim, tag) of every node when
+    # there is more than one cell type: the lowest-dimensional cell holding it.
+    dim_tags = np.zeros((len(points), 2), dtype=np.int64)
+    for (kind, cells_), ent in zip(blocks, e):  # tets first: lower dimensions overwrite
+        dim = {"tetra": 3, "triangle": 2, "line": 1}[kind]
+        flat = np.asarray(cells_).ravel()
+        dim_tags[flat, 0] = dim
+        dim_tags[flat, 1] = np.repeat(np.asarray(ent), np.asarray(cells_).shape[1])
+    point_data["gmsh:dim_tags"] = dim_tags
     field_data = {name: np.array([tag, dim]) for dim, tag, name in mesh.groups}
     return meshio.Mesh(
         points,
@@ -572,3 +637,141 @@ def to_meshio(mesh: Any, tets: Any = None, refs: Any = None) -> Any:
         cell_data={"medit:ref": r, "gmsh:physical": r, "gmsh:geometrical": e},
         field_data=field_data,
     )
+
+
+def improve_meshio(
+    m: Any,
+    *,
+    mode: str = "best",
+    weight: float = 0.75,
+    threshold: float = 0.3,
+    iterations: int = 10,
+    seed: int = 0,
+    threads: int = 0,
+    optimizer: str = "paper",
+    check: bool = True,
+    diagnose: bool = False,
+    log: Optional[LogCallback] = None,
+    allow_insert: bool = False,
+    allow_remove: bool = False,
+    objective: str = "alpha",
+    guard: bool = True,
+    polish: bool = False,
+    progress: Optional[ProgressCallback] = None,
+) -> Any:
+    """Improves the tets of a ``meshio.Mesh``; returns a new ``meshio.Mesh``.
+
+    ``tetopt.improve(m)`` calls this for a meshio.Mesh.  Options as
+    :func:`improve`; the report is in the result's ``info["tetopt_report"]``.
+
+    What comes back: every cell block in its order, the "tetra" blocks with
+    their new tets, every other block (triangles, lines, vertices, ...)
+    unchanged; every cell data array and every cell set, with their names,
+    and point data, point sets, field data.  The points of non-tetra cells
+    never move (triangles and lines are constrained faces and edges, other
+    blocks' points required vertices).  A new tet has no value of its own:
+    each distinct combination of (tetra block, value of every cell data
+    array, membership of every cell set) over the input's tets is made a
+    region, whose interfaces are constrained like any region interface, so
+    each new tet lies in one region and takes that region's values and
+    memberships.  A per-tet field of many distinct values therefore
+    freezes its tets (every face an interface): drop such data first.
+    """
+    try:
+        import meshio  # type: ignore[import-not-found]
+    except ImportError as e:  # pragma: no cover - depends on the installation
+        raise ImportError("improve_meshio needs meshio (Debian: python3-meshio)") from e
+    points = np.asarray(m.points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"meshio points: expected shape (n, 3), got {points.shape}")
+    cells = list(m.cells)
+    for i, c in enumerate(cells):
+        if c.type in ("tetra10", "tetra20", "tetra35", "tetra56"):
+            raise ValueError(f"meshio cell block {i} is {c.type}; tetopt handles linear tets only")
+    tb = [i for i, c in enumerate(cells) if c.type == "tetra"]
+    if not tb:
+        raise ValueError("the meshio mesh has no 'tetra' cells")
+    cell_data = {k: list(v) for k, v in (getattr(m, "cell_data", None) or {}).items()}
+    cell_sets = {k: list(v) for k, v in (getattr(m, "cell_sets", None) or {}).items()}
+    counts = [len(cells[i].data) for i in tb]
+    nt = int(sum(counts))
+    tets = np.concatenate([np.asarray(cells[i].data).reshape(-1, 4) for i in tb]).astype(np.int64)
+
+    # The region key of every tet, as rows of bytes: block, data values, set memberships.
+    def as_bytes(a: np.ndarray) -> np.ndarray:
+        a = np.ascontiguousarray(a.reshape(nt, -1))
+        return a.view(np.uint8).reshape(nt, -1)
+
+    key = [as_bytes(np.repeat(np.arange(len(tb), dtype=np.int32), counts))]
+    data_cat: Dict[str, np.ndarray] = {}
+    for name, blocks in cell_data.items():
+        if len(blocks) != len(cells):
+            raise ValueError(f"cell_data[{name!r}]: {len(blocks)} arrays for {len(cells)} cell blocks")
+        data_cat[name] = np.concatenate([np.asarray(blocks[i]).reshape(counts[j], *np.shape(blocks[i])[1:])
+                                         for j, i in enumerate(tb)])
+        key.append(as_bytes(data_cat[name]))
+    member: Dict[str, np.ndarray] = {}
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    for name, blocks in cell_sets.items():
+        inside = np.zeros(nt, dtype=np.uint8)
+        for j, i in enumerate(tb):
+            if i < len(blocks) and blocks[i] is not None and len(blocks[i]):
+                inside[offsets[j] + np.asarray(blocks[i], dtype=np.int64)] = 1
+        member[name] = inside
+        key.append(inside.reshape(nt, 1))
+    rows = np.concatenate(key, axis=1)
+    _, first, region = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    region = region.reshape(-1)
+    if len(first) > 2**31 - 1:
+        raise ValueError("too many distinct regions")
+    block_of_region = np.repeat(np.arange(len(tb)), counts)[first]
+
+    def gather(kind: str, cols: int) -> np.ndarray:
+        parts = [np.asarray(c.data).reshape(-1, cols) for c in cells if c.type == kind]
+        return np.concatenate(parts).astype(np.int64) if parts else np.zeros((0, cols), np.int64)
+
+    other = [np.asarray(c.data).ravel() for c in cells if c.type not in ("tetra", "triangle", "line")]
+    required = np.unique(np.concatenate(other)).astype(np.int64) if other else None
+    point_data = {k: np.asarray(v) for k, v in (getattr(m, "point_data", None) or {}).items()}
+    mesh = Mesh(points=points, tets=tets, refs=region.astype(np.int32), triangles=gather("triangle", 3),
+                edges=gather("line", 2), required_vertices=required, point_data=point_data)
+    out, report = improve_mesh(mesh, mode=mode, weight=weight, threshold=threshold, iterations=iterations,
+                               seed=seed, threads=threads, optimizer=optimizer, check=check, diagnose=diagnose,
+                               log=log, allow_insert=allow_insert, allow_remove=allow_remove,
+                               objective=objective, guard=guard, polish=polish, progress=progress)
+    new_tets = np.asarray(out.tets)
+    if out.flipped_on_read:  # back to the input's own orientation (as improve() does)
+        new_tets = new_tets[:, [0, 1, 3, 2]]
+    new_region = np.asarray(out.refs, dtype=np.int64)
+    removed = np.asarray(report.get("removed_vertices", []), dtype=np.int64)
+
+    def renumber(ids: np.ndarray) -> np.ndarray:
+        return ids - np.searchsorted(removed, ids) if len(removed) else ids
+
+    new_cells: List[Any] = []
+    new_data: Dict[str, List[np.ndarray]] = {k: [] for k in cell_data}
+    new_sets: Dict[str, List[Any]] = {k: [] for k in cell_sets}
+    for i, c in enumerate(cells):
+        if c.type == "tetra":
+            j = tb.index(i)
+            mine = np.flatnonzero(block_of_region[new_region] == j)
+            t_reg = new_region[mine]
+            new_cells.append(meshio.CellBlock("tetra", new_tets[mine].astype(np.asarray(c.data).dtype)))
+            for name in cell_data:
+                new_data[name].append(data_cat[name][first[t_reg]])
+            for name in cell_sets:
+                new_sets[name].append(np.flatnonzero(member[name][first[t_reg]]))
+        else:
+            d = np.asarray(c.data)
+            new_cells.append(meshio.CellBlock(c.type, renumber(d.astype(np.int64)).astype(d.dtype)))
+            for name in cell_data:
+                new_data[name].append(np.asarray(cell_data[name][i]))
+            for name in cell_sets:
+                blocks = cell_sets[name]
+                new_sets[name].append(blocks[i] if i < len(blocks) else None)
+    point_sets = {k: renumber(np.asarray(v, dtype=np.int64)) for k, v in (getattr(m, "point_sets", None) or {}).items()}
+    info = dict(getattr(m, "info", None) or {})
+    info["tetopt_report"] = report
+    return meshio.Mesh(np.asarray(out.points), new_cells, point_data=dict(out.point_data or {}), cell_data=new_data,
+                       field_data=dict(getattr(m, "field_data", None) or {}), point_sets=point_sets,
+                       cell_sets=new_sets, info=info)

@@ -8,6 +8,7 @@ import numpy.typing as npt
 __version__: str
 
 LogCallback = Callable[[str, str], Any]
+ProgressCallback = Callable[[str, int, float, float], Any]
 PathLike = Union[str, os.PathLike[str]]
 ArrayLike = npt.ArrayLike
 
@@ -62,7 +63,34 @@ class Mesh:
     ) -> None: ...
     def validate(self) -> None:
         """Raises ValueError when the arrays do not form a valid tetopt mesh."""
+    @classmethod
+    def from_meshio(cls, m: Any, ref_key: Optional[str] = None) -> Mesh:
+        """A Mesh from a meshio.Mesh (see from_meshio)."""
+    def to_meshio(self) -> Any:
+        """This mesh as a meshio.Mesh (see to_meshio)."""
 
+@overload
+def improve(
+    points: Any,
+    *,
+    mode: str = "best",
+    weight: float = 0.75,
+    threshold: float = 0.3,
+    iterations: int = 10,
+    seed: int = 0,
+    threads: int = 0,
+    optimizer: str = "paper",
+    check: bool = True,
+    diagnose: bool = False,
+    log: Optional[LogCallback] = None,
+    allow_insert: bool = False,
+    allow_remove: bool = False,
+    objective: str = "alpha",
+    guard: bool = True,
+    progress: Optional[ProgressCallback] = None,
+) -> Any:
+    """improve(meshio_mesh) -> meshio.Mesh (see improve_meshio)."""
+@overload
 def improve(
     points: ArrayLike,
     tets: ArrayLike,
@@ -84,12 +112,15 @@ def improve(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    progress: Optional[ProgressCallback] = None,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.int32], Dict[str, Any]]:
     """Improves a tetrahedral mesh without touching its constrained vertices and faces.
 
     Returns (points (n,3) float64, tets (m',4) int32, refs (m',) int32, report),
     report having the keys of `tetopt improve --report` JSON.  Raises ValueError
-    on bad arguments, RuntimeError on an invariant failure (a bug).  GIL released.
+    on bad arguments, RuntimeError on an invariant failure (a bug),
+    KeyboardInterrupt on Ctrl-C.  GIL released.  progress(phase, round,
+    fraction, worst) returning False stops the run (report["stopped_early"]).
     """
 
 def improve_mesh(
@@ -110,8 +141,31 @@ def improve_mesh(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    progress: Optional[ProgressCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole Mesh as `tetopt improve` does (listed entities constrained, everything kept)."""
+
+def improve_meshio(
+    m: Any,
+    *,
+    mode: str = "best",
+    weight: float = 0.75,
+    threshold: float = 0.3,
+    iterations: int = 10,
+    seed: int = 0,
+    threads: int = 0,
+    optimizer: str = "paper",
+    check: bool = True,
+    diagnose: bool = False,
+    log: Optional[LogCallback] = None,
+    allow_insert: bool = False,
+    allow_remove: bool = False,
+    objective: str = "alpha",
+    guard: bool = True,
+    polish: bool = False,
+    progress: Optional[ProgressCallback] = None,
+) -> Any:
+    """meshio.Mesh in, meshio.Mesh out: cell blocks, cell data and cell sets kept by name; report in info["tetopt_report"]."""
 
 @overload
 def quality(points: Mesh, *, diagnose: bool = False, threshold: float = 0.3) -> Dict[str, Any]: ...

@@ -120,4 +120,15 @@ inline void file_tet(const TetMesh& m, int32_t t, Format target, int32_t out[4])
 Status parse_medit_tuned(std::string_view data, const std::string& name, TetMesh& m, int threads,
                          int64_t min_records, size_t chunk);
 
+/// What the OpenFOAM writer cannot keep of m (dropped_by_format's part for
+/// it; openfoam.cpp).
+std::vector<std::string> openfoam_dropped(const TetMesh& m);
+/// The same for the Fluent writer (fluent.cpp).
+std::vector<std::string> fluent_dropped(const TetMesh& m);
+/// The same for the Abaqus writer (abaqus.cpp).
+std::vector<std::string> abaqus_dropped(const TetMesh& m);
+/// Whether .msh bytes are a Fluent mesh: the first thing after blanks (and
+/// a UTF-8 byte order mark) is '(' (fluent.cpp).
+bool looks_like_fluent(std::string_view data);
+
 }  // namespace tetopt::detail

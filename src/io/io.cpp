@@ -71,13 +71,43 @@ class MappedFile {
 };
 }  // namespace
 
+namespace {
+bool is_dir(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+bool is_file(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+// The path without trailing slashes ("/" stays).
+std::string no_trailing_slash(std::string p) {
+  while (p.size() > 1 && p.back() == '/') p.pop_back();
+  return p;
+}
+bool names_polymesh(const std::string& path) {
+  const std::string p = no_trailing_slash(path);
+  return p == "polyMesh" || (p.size() > 9 && p.compare(p.size() - 9, 9, "/polyMesh") == 0);
+}
+}  // namespace
+
+std::string openfoam_dir(const std::string& path) {
+  const std::string p = no_trailing_slash(path);
+  if (is_dir(p) && is_file(p + "/owner")) return p;
+  if (is_dir(p) && is_file(p + "/constant/polyMesh/owner")) return p + "/constant/polyMesh";
+  if (names_polymesh(p)) return p;
+  return {};
+}
+
 Format format_from_path(const std::string& path) {
+  if (names_polymesh(path) || (is_dir(path) && !openfoam_dir(path).empty())) return Format::OpenFoam;
   if (ends_with(path, ".meshb")) return Format::MeditBinary;
   if (ends_with(path, ".mesh")) return Format::Medit;
   if (ends_with(path, ".msh")) return Format::Gmsh;
   if (ends_with(path, ".vtk")) return Format::Vtk;
   if (ends_with(path, ".vtu")) return Format::Vtu;
   if (ends_with(path, ".node") || ends_with(path, ".ele")) return Format::TetGen;
+  if (ends_with(path, ".inp")) return Format::Abaqus;
   return Format::Unknown;
 }
 
@@ -422,12 +452,58 @@ Status write_medit_streamed(const std::string& path, const TetMesh& m, int threa
 }  // namespace
 
 std::vector<std::string> mesh_files(const std::string& path) {
+  if (format_from_path(path) == Format::OpenFoam) {
+    std::string dir = openfoam_dir(path);
+    if (dir.empty()) dir = no_trailing_slash(path);
+    std::vector<std::string> out;
+    for (const char* f : kFoamFileNames) out.push_back(dir + "/" + f);
+    return out;
+  }
   if (format_from_path(path) != Format::TetGen) return {path};
   const std::string base = stem(path);
   return {base + ".node", base + ".ele", base + ".face"};
 }
 
+namespace {
+// An OpenFOAM output folder: it may not exist yet (the writer makes it and
+// the folders above it); the nearest one that exists must be a folder we
+// can write in, and the folder itself, if it exists, a folder.
+Status check_foam_output(const std::string& path) {
+  std::string p = no_trailing_slash(path);
+  struct stat st {};
+  if (::stat(p.c_str(), &st) == 0) {
+    if (!S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown(p) + ": exists and is not a folder (an OpenFOAM polyMesh is one)");
+    return Status::success();
+  }
+  for (;;) {
+    const size_t slash = p.rfind('/');
+    p = slash == std::string::npos ? "." : (slash == 0 ? "/" : p.substr(0, slash));
+    if (::stat(p.c_str(), &st) == 0) {
+      if (!S_ISDIR(st.st_mode)) return Status::error(ErrorCode::Io, shown(p) + ": not a folder");
+      if (::access(p.c_str(), W_OK | X_OK) != 0) return Status::error(ErrorCode::Io, shown(p) + ": cannot create folders in it: " + reason(errno));
+      return Status::success();
+    }
+    if (p == "." || p == "/") return Status::error(ErrorCode::Io, shown(path) + ": no folder above it exists");
+  }
+}
+// mkdir -p.
+Status make_dirs(const std::string& path) {
+  const std::string p = no_trailing_slash(path);
+  if (is_dir(p)) return Status::success();
+  const size_t slash = p.rfind('/');
+  if (slash != std::string::npos && slash > 0)
+    if (Status s = make_dirs(p.substr(0, slash)); !s) return s;
+  if (::mkdir(p.c_str(), 0777) != 0 && errno != EEXIST)
+    return Status::error(ErrorCode::Io, shown(p) + ": cannot create the folder: " + reason(errno));
+  return Status::success();
+}
+}  // namespace
+
 Status check_output_path(const std::string& path) {
+  if (format_from_path(path) == Format::OpenFoam) {
+    if (Status s = check_foam_output(path); !s) return s;
+    if (!is_dir(no_trailing_slash(path))) return Status::success();  // made by the write
+  }
   for (const std::string& f : mesh_files(path)) {
     std::string target;
     if (Status s = follow_links(f, target); !s) return s;
@@ -500,6 +576,7 @@ namespace {
 Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   m = TetMesh{};
   const Format f = format_from_path(path);
+  Format actual = f;  // a .msh may turn out to be Fluent's
   // The name every message gives: control characters escaped, so that a
   // message stays one line for the library's callers too (Python).
   const std::string name = shown(path);
@@ -508,7 +585,28 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+                           name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp, or a folder ending in polyMesh)");
+    case Format::OpenFoam: {
+      const std::string dir = openfoam_dir(path);
+      if (dir.empty() || !is_dir(dir)) return Status::error(ErrorCode::Io, name + ": no such folder");
+      std::string text[8];
+      std::string_view views[8];
+      for (int k = 0; k < 8; ++k) {
+        const std::string fp = dir + "/" + kFoamFileNames[k];
+        struct stat fst {};
+        if (::stat(fp.c_str(), &fst) != 0) {
+          if (::stat((fp + ".gz").c_str(), &fst) == 0)
+            return Status::error(ErrorCode::Unsupported, shown(fp) + ".gz: compressed polyMesh files are not read (gunzip them first)");
+          if (k < 4) return Status::error(ErrorCode::Io, shown(fp) + ": no such file");
+          continue;  // boundary and zones may be absent
+        }
+        if (s = read_file_bytes(fp, text[k]); !s) return s;
+        if (has_utf8_bom(text[k])) text[k].erase(0, 3);
+        views[k] = text[k];
+      }
+      s = parse_openfoam(views, shown(dir), m);
+      break;
+    }
     case Format::TetGen: {
       const std::string base = stem(path);
       std::string ele, face;
@@ -542,13 +640,17 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
       }
       if (f == Format::Medit) s = parse_medit(bytes, name, m, threads);
       else if (f == Format::MeditBinary) s = parse_meditb(bytes, name, m);
-      else if (f == Format::Gmsh) s = parse_gmsh(bytes, name, m);
+      else if (f == Format::Gmsh && detail::looks_like_fluent(bytes)) {
+        s = parse_fluent(bytes, name, m);
+        actual = Format::Fluent;
+      } else if (f == Format::Gmsh) s = parse_gmsh(bytes, name, m);
+      else if (f == Format::Abaqus) s = parse_abaqus(bytes, name, m);
       else if (f == Format::Vtk) s = parse_vtk(bytes, name, m);
       else s = parse_vtu(bytes, name, m);
     }
   }
   if (!s) return s;
-  m.source_format = static_cast<int>(f);
+  m.source_format = static_cast<int>(actual);
   if (m.vert_ref.empty()) m.vert_ref.assign(m.nv(), 0);
   if (m.tet_ref.empty()) m.tet_ref.assign(m.nt(), 0);
   if (m.tri_ref.size() < static_cast<size_t>(m.ntri())) m.tri_ref.resize(m.ntri(), 0);
@@ -560,16 +662,26 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
 }
 }  // namespace
 
+bool msh_is_fluent(const TetMesh& m, const WriteOptions& opt) {
+  if (opt.msh == WriteOptions::Msh::Auto) return m.source_format == static_cast<int>(Format::Fluent);
+  return opt.msh == WriteOptions::Msh::Fluent;
+}
+
 std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const WriteOptions& opt) {
+  if (f == Format::Gmsh && msh_is_fluent(m, opt)) f = Format::Fluent;
   std::vector<std::string> out;
   auto add = [&](int64_t n, const std::string& what, const char* unit = "") {
     if (n > 0) out.push_back(what + " (" + std::to_string(n) + unit + ")");
   };
   const bool medit = f == Format::Medit || f == Format::MeditBinary, gmsh = f == Format::Gmsh,
-             vtk = f == Format::Vtk || f == Format::Vtu, tetgen = f == Format::TetGen;
+             vtk = f == Format::Vtk || f == Format::Vtu, tetgen = f == Format::TetGen,
+             foam = f == Format::OpenFoam, fluent = f == Format::Fluent, abaqus = f == Format::Abaqus;
+  // Formats that name groups themselves (patches, zones): the names of the
+  // groups they write are kept; their writer's own list says what is not.
+  const bool names_kept = gmsh || foam || fluent || abaqus;
   if (gmsh || vtk) add(std::count_if(m.vert_ref.begin(), m.vert_ref.end(), [](int32_t r) { return r != 0; }),
                        "vertex refs", " nonzero");
-  if (tetgen) {
+  if (tetgen || foam || fluent || abaqus) {
     add(static_cast<int64_t>(m.edges.size() / 2), "listed edges");
     add(static_cast<int64_t>(m.corners.size()), "corners");
   }
@@ -580,7 +692,7 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
     add(static_cast<int64_t>(m.ridges.size()), "ridges");
   }
   if (!gmsh) {
-    add(static_cast<int64_t>(m.physical_names.size()), "physical names");
+    if (!names_kept) add(static_cast<int64_t>(m.physical_names.size()), "physical names");
     // Entity tags equal to the refs (as the Gmsh writers make them for a mesh
     // from another format) say nothing more.
     int64_t own = 0;
@@ -608,6 +720,29 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
                                });
                       }),
         "point data names with blanks (or empty) as they are", "; written with '_' in their place, 'field' if empty");
+  // What the attachment says that only its own format writes (OpenFOAM
+  // "wall" and "symmetryPlane" become Fluent "wall" / "symmetry" and back).
+  if (!foam)
+    add(std::count_if(m.attachment.groups.begin(), m.attachment.groups.end(),
+                      [&](const GroupAttachment& g) {
+                        const bool mapped = fluent && (g.foam_type == "wall" || g.foam_type == "symmetryPlane" ||
+                                                       g.foam_type == "symmetry");
+                        return !g.foam_entries.empty() || (!g.foam_type.empty() && g.foam_type != "patch" && !mapped);
+                      }),
+        "OpenFOAM patch types and entries", " patches");
+  if (!fluent)
+    add(std::count_if(m.attachment.groups.begin(), m.attachment.groups.end(),
+                      [&](const GroupAttachment& g) {
+                        const bool kept = foam && (g.fluent_type == "wall" || g.fluent_type == "symmetry");
+                        return !kept && !g.fluent_type.empty() && g.fluent_type != "interior" && g.fluent_type != "fluid";
+                      }),
+        "Fluent zone types", " zones");
+  if (foam)
+    for (std::string& x : detail::openfoam_dropped(m)) out.push_back(std::move(x));
+  if (fluent)
+    for (std::string& x : detail::fluent_dropped(m)) out.push_back(std::move(x));
+  if (abaqus)
+    for (std::string& x : detail::abaqus_dropped(m)) out.push_back(std::move(x));
   if (!vtk && !m.point_fields.empty()) {
     std::string names;
     for (const TetMesh::PointField& p : m.point_fields) names += (names.empty() ? "" : ", ") + p.name;
@@ -624,7 +759,7 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           shown(path) + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele)");
+                           shown(path) + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp, or a folder ending in polyMesh)");
     case Format::TetGen: {
       std::string ele, face;
       if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, shown(path) + ": " + s.message);
@@ -633,9 +768,22 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
       const std::vector<std::string> names = mesh_files(path);
       return write_files_atomic({{names[0], out}, {names[1], ele}, {names[2], face}});
     }
+    case Format::OpenFoam: {
+      std::string files[8];
+      if (s = format_openfoam(m, files, opt.binary); !s) return Status::error(s.code, shown(path) + ": " + s.message);
+      if (s = make_dirs(path); !s) return s;
+      const std::vector<std::string> names = mesh_files(path);
+      std::vector<std::pair<std::string, std::string_view>> set;
+      for (int k = 0; k < 8; ++k) set.emplace_back(names[k], files[k]);
+      return write_files_atomic(set);
+    }
     case Format::Medit: return write_medit_streamed(path, m, opt.threads);
     case Format::MeditBinary: s = format_meditb(m, out, opt.meditb_version); break;
-    case Format::Gmsh: s = format_gmsh(m, out, opt.msh_version, opt.binary); break;
+    case Format::Gmsh:
+      s = msh_is_fluent(m, opt) ? format_fluent(m, out, opt.binary) : format_gmsh(m, out, opt.msh_version, opt.binary);
+      break;
+    case Format::Fluent: s = format_fluent(m, out, opt.binary); break;
+    case Format::Abaqus: s = format_abaqus(m, out); break;
     case Format::Vtk: s = format_vtk(m, out, opt.binary); break;
     case Format::Vtu: s = format_vtu(m, out); break;
   }
