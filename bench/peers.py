@@ -364,13 +364,20 @@ def tool_mmg(ctx, insert):
     if not exe or not os.access(exe, os.X_OK):
         return None, None, "skipped: no mmg3d binary (--mmg)"
     name = "mmg-insert" if insert else "mmg"
+    # Binary output: MMG's ASCII .mesh prints 15 significant digits, which
+    # changes every coordinate's last bits; its .meshb holds the doubles.
+    outb = os.path.join(ctx["dir"], name + ".meshb")
     out = os.path.join(ctx["dir"], name + ".mesh")
     log = os.path.join(ctx["dir"], name + ".log")
-    cmd = [exe, "-in", ctx["input"], "-out", out, "-optim", "-nosurf", "-v", "1"] + ([] if insert else ["-noinsert"])
+    cmd = [exe, "-in", ctx["input"], "-out", outb, "-optim", "-nosurf", "-v", "1"] + ([] if insert else ["-noinsert"])
     rc, wall = run_sub(cmd, ctx["timeout"], log)
-    if rc != 0 or not os.path.exists(out):
+    if rc != 0 or not os.path.exists(outb):
         return None, wall, f"mmg3d failed ({rc}): {tail(log)}"
-    return out, wall, "mmg3d " + " ".join(cmd[5:]) + " (whole process)"
+    # .meshb -> .mesh for the referee with tetopt's converter (17 digits: exact).
+    conv = subprocess.run([ctx["tetopt"], "convert", outb, out], capture_output=True, text=True)
+    if conv.returncode != 0:
+        return None, wall, f"converting MMG's .meshb failed: {conv.stderr.strip()[-200:]}"
+    return out, wall, "mmg3d " + " ".join(cmd[5:]) + " (whole process; .meshb, converted exactly)"
 
 
 def tool_tetopt(ctx, extra=()):

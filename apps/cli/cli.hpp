@@ -27,6 +27,9 @@ void on_sigbus(int);
 void on_terminating_signal(int sig);
 /// read_mesh with on_sigbus told which file is being read.
 tetopt::Status read_input(const std::string& path, tetopt::TetMesh& m, tetopt::OrientationReport* orient, int threads);
+/// The input the last read_input call read (as shown in messages), empty
+/// before any: main's out-of-memory message names it.
+const std::string& last_input();
 
 int cmd_quality(const std::vector<std::string>& args);
 int cmd_convert(const std::vector<std::string>& args);

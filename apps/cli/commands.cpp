@@ -80,9 +80,15 @@ void on_terminating_signal(int sig) {
   std::raise(sig);
 }
 
+namespace {
+std::string g_last_input;
+}
+const std::string& last_input() { return g_last_input; }
+
 Status read_input(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
   static std::string reading;
   reading = shown(path);
+  g_last_input = reading;
   g_reading = reading.c_str();
   Status s = read_mesh(path, m, orient, threads);
   g_reading = nullptr;

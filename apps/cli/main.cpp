@@ -84,8 +84,10 @@ int main(int argc, char** argv) {
     if (cmd == "improve") return tetopt_cli::cmd_improve(args);
     if (cmd == "generate") return tetopt_cli::cmd_generate(args);
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "tetopt %s: out of memory (the mesh needs more memory than there is); nothing written\n",
-                 cmd.c_str());
+    // Name the mesh when one was read (a script running many sees which).
+    const std::string& in = tetopt_cli::last_input();
+    std::fprintf(stderr, "tetopt %s: %s%sout of memory (the mesh needs more memory than there is); nothing written\n",
+                 cmd.c_str(), in.c_str(), in.empty() ? "" : ": ");
     return tetopt_cli::kExitInput;
   }
   std::fprintf(stderr, "tetopt: unknown command '%s'\n\n%s", tetopt_cli::shown(cmd).c_str(), kMainHelp);
