@@ -505,6 +505,9 @@ constexpr int kSignalPollMs = 10;
 /// after improve() has returned (a callback that raises also stops the run).
 /// A progress callback returning False stops the run: the report says
 /// "stopped_early": true and the mesh is valid and checked.
+/// As `tetopt improve` (without --keep-order), the tets of each region are
+/// then put together again, regions in the input's order (one Gmsh block
+/// per entity), each region's tets in improve's order.
 std::string run_improve(TetMesh& m, tetopt::ImproveOptions& opt, const py::object& log, const py::object& progress,
                         std::chrono::steady_clock::time_point t0, const std::string& input) {
   std::atomic<bool> stop{false};
@@ -547,7 +550,14 @@ std::string run_improve(TetMesh& m, tetopt::ImproveOptions& opt, const py::objec
     std::thread worker([&] {
       try {
         measures_before = tetopt::compute_measure_stats(m, opt.threads);
+        const std::vector<tetopt::RegionKey> regions = tetopt::region_key_order(m);
         s = tetopt::improve(m, opt, rep, fn, &stop);
+        std::vector<int32_t> new_id;
+        if (s.mesh_valid() && !stop && regions.size() > 1 && tetopt::group_tets_by_region(m, regions, &new_id)) {
+          if (rep.after.worst_tet >= 0 && rep.after.worst_tet < static_cast<int32_t>(new_id.size()))
+            rep.after.worst_tet = new_id[static_cast<size_t>(rep.after.worst_tet)];
+          if (Status b = tetopt::build_topology(m, opt.threads); !b) s = b;
+        }
         if (s.mesh_valid() && !stop) measures_after = tetopt::compute_measure_stats(m, opt.threads);
       } catch (...) {
         failure = std::current_exception();

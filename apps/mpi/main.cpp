@@ -97,6 +97,8 @@ const char* kHelp =
     "  --meshb-version V    2, 3 (default) or 4 for .meshb output\n"
     "  --reorder-above N    rank 0 puts a mesh of N tets or more (default 1000000)\n"
     "                       whose tets follow no spatial order in Morton order first\n"
+    "  --write-boundary     list the boundary and interface triangles IN does not list,\n"
+    "                       as groups boundary_REGION and interface_A_B with new refs\n"
     "  --keep-order         keep IN's tet order (wins over --reorder-above)\n"
     "  --no-check           skip the per-part proof inside improve (the final global\n"
     "                       proof always runs)\n"

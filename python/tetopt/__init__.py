@@ -320,7 +320,10 @@ def improve(
     Returns:
         points: (n, 3) float64, the same vertices (constrained ones bit-identical;
             plus inserted, minus removed ones with allow_insert / allow_remove).
-        tets: (m', 4) int32, the new connectivity (flips change m).
+        tets: (m', 4) int32, the new connectivity (flips change m); as
+            ``tetopt improve`` writes them, the tets of each region are put
+            together, regions in the input's order, each region's tets in
+            the order improve left them.
         refs: (m',) int32 region ref per new tet.
         report: dict with the keys of ``tetopt improve --report`` JSON:
             tool, version, input, output, options, before, after (quality

@@ -33,6 +33,7 @@
 // or node in several sets keeps the first; the writer writes one set per
 // ref.
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -517,36 +518,42 @@ void make_plan(const TetMesh& m, APlan& p) {
     if (static_cast<size_t>(v) < m.vert_ref.size() && m.vert_ref[v] != 0) vr[m.vert_ref[v]].push_back(v);
   for (auto& [r, v] : vr) p.nsets.push_back({r, label(0, r, "NODES"), std::move(v)});
   used.clear();
-  // surfaces: each listed triangle as the face of a tet
-  std::vector<detail::WrittenFace> faces;
-  std::vector<std::array<int32_t, 3>> keys;
-  std::string what;
-  if (!detail::faces_of_tets(m, Format::Abaqus, faces, &keys, what)) return;
+  // surfaces: each listed triangle as the face of a tet.  Every (tet, C3D4
+  // face) by its sorted vertex triple; no manifold mesh is needed (the
+  // fuzzer found a face on three tets that the writer refused).
+  struct Item {
+    std::array<int32_t, 3> key;
+    int64_t ef;  // 4 * tet + face
+  };
+  std::vector<Item> items;
+  items.reserve(4 * static_cast<size_t>(m.nt()));
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    int32_t v[4];
+    detail::file_tet(m, t, Format::Abaqus, v);
+    for (int f = 0; f < 4; ++f) {
+      const int32_t fv[3] = {v[kAbqFace[f][0]], v[kAbqFace[f][1]], v[kAbqFace[f][2]]};
+      items.push_back({detail::tri_key(fv), 4 * static_cast<int64_t>(t) + f});
+    }
+  }
+  std::sort(items.begin(), items.end(), [](const Item& x, const Item& y) { return x.key != y.key ? x.key < y.key : x.ef < y.ef; });
   for (int32_t i = 0; i < m.ntri(); ++i) {
     const int32_t* tri = &m.tris[3 * static_cast<size_t>(i)];
     const auto k = detail::tri_key(tri);
-    const auto it = std::lower_bound(keys.begin(), keys.end(), k);
-    if (it == keys.end() || *it != k || k[0] == k[1] || k[1] == k[2]) {
+    auto it = std::lower_bound(items.begin(), items.end(), k, [](const Item& x, const std::array<int32_t, 3>& y) { return x.key < y; });
+    if (it == items.end() || it->key != k || k[0] == k[1] || k[1] == k[2]) {
       ++p.unmatched;
       continue;
     }
-    const detail::WrittenFace& w = faces[static_cast<size_t>(it - keys.begin())];
-    // The tet and C3D4 face whose node order is the triangle's, else the
-    // first tet's face (the vertex order then changes).
+    // The (tet, face) whose node order is the triangle's, else the first.
     int64_t best = -1;
-    for (int32_t t : {w.first, w.second}) {
-      if (t < 0) continue;
+    for (auto j = it; j != items.end() && j->key == k && best < 0; ++j) {
       int32_t v[4];
-      detail::file_tet(m, t, Format::Abaqus, v);
-      for (int f = 0; f < 4; ++f) {
-        const int32_t fv[3] = {v[kAbqFace[f][0]], v[kAbqFace[f][1]], v[kAbqFace[f][2]]};
-        if (detail::tri_key(fv) != k) continue;
-        if (fv[0] == tri[0] && fv[1] == tri[1] && fv[2] == tri[2]) best = 4 * static_cast<int64_t>(t) + f;
-        else if (best < 0 && t == w.first) best = -2 - (4 * static_cast<int64_t>(t) + f);
-      }
+      detail::file_tet(m, static_cast<int32_t>(j->ef / 4), Format::Abaqus, v);
+      const int f = static_cast<int>(j->ef % 4);
+      if (v[kAbqFace[f][0]] == tri[0] && v[kAbqFace[f][1]] == tri[1] && v[kAbqFace[f][2]] == tri[2]) best = j->ef;
     }
-    if (best < -1) {
-      best = -2 - best;
+    if (best < 0) {
+      best = it->ef;
       ++p.reordered;
     }
     sr[m.tri_ref[i]].push_back(best);
@@ -564,9 +571,6 @@ Status parse_abaqus(std::string_view data, const std::string& name, TetMesh& m) 
 Status format_abaqus(const TetMesh& m, std::string& out) {
   APlan p;
   make_plan(m, p);
-  std::vector<detail::WrittenFace> faces;
-  std::string what;
-  if (!detail::faces_of_tets(m, Format::Abaqus, faces, nullptr, what)) return Status::error(ErrorCode::InvalidMesh, what);
   out += "** Abaqus / CalculiX input written by tetopt: nodes, C3D4 elements, sets, surfaces\n*HEADING\ntetopt mesh\n*NODE\n";
   for (int32_t v = 0; v < m.nv(); ++v) {
     out += std::to_string(v + 1);

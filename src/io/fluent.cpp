@@ -200,10 +200,13 @@ class Reader {
     std::memcpy(&f, &u, 4);
     return f;
   }
-  /// n items of at least `per` bytes each must fit in what is left.
-  Status room(int64_t n, int64_t per, const char* what, size_t at) {
+  /// n items of at least `per` bytes each must fit in what is left: exactly
+  /// in binary data (read raw, unchecked after this), with a byte of slack
+  /// in text (the last item needs no separator; tokens are checked anyway).
+  Status room(int64_t n, int64_t per, const char* what, size_t at, bool binary) {
     uint64_t need = 0;
-    if (!detail::ck_mul(static_cast<uint64_t>(n), static_cast<uint64_t>(per), need) || need > d_.size() - std::min(pos_, d_.size()) + 1)
+    if (!detail::ck_mul(static_cast<uint64_t>(n), static_cast<uint64_t>(per), need) ||
+        need > d_.size() - std::min(pos_, d_.size()) + (binary ? 0 : 1))
       return fail(std::string(what) + ": " + std::to_string(n) + " items are more than the file holds", at);
     return Status::success();
   }
@@ -257,7 +260,7 @@ Status Reader::nodes(int64_t index, size_t at) {
   const bool binary = index != 10;
   if (Status s = expect('(', "before the node coordinates"); !s) return s;
   const int bytes = index == 2010 ? 4 : 8;
-  if (Status s = room(n, 3 * (binary ? bytes : 2), "nodes", at); !s) return s;
+  if (Status s = room(n, 3 * (binary ? bytes : 2), "nodes", at, binary); !s) return s;
   NodeZone z{first, last, {}};
   z.xyz.reserve(detail::ck_size(n, 3));
   for (int64_t i = 0; i < 3 * n; ++i) {
@@ -307,7 +310,7 @@ Status Reader::cells(int64_t index, size_t at) {
   const int64_t n = last - first + 1;
   const bool binary = index != 12;
   if (Status s = expect('(', "before the cell types"); !s) return s;
-  if (Status s = room(n, binary ? 4 : 2, "cell types", at); !s) return s;
+  if (Status s = room(n, binary ? 4 : 2, "cell types", at, binary); !s) return s;
   for (int64_t i = 0; i < n; ++i) {
     int64_t t = 0;
     if (binary) t = static_cast<int32_t>(raw32());
@@ -344,7 +347,7 @@ Status Reader::faces(int64_t index, size_t at) {
   const int64_t n = last - first + 1;
   const bool binary = index != 13;
   if (Status s = expect('(', "before the faces"); !s) return s;
-  if (Status s = room(n, (ft == 0 ? 6 : 5) * (binary ? 4 : 2), "faces", at); !s) return s;
+  if (Status s = room(n, (ft == 0 ? 6 : 5) * (binary ? 4 : 2), "faces", at, binary); !s) return s;
   FaceZone z{zid, first, last, bc, at, {}, {}};
   z.v.reserve(detail::ck_size(n, 3));
   z.c.reserve(detail::ck_size(n, 2));

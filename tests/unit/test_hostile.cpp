@@ -755,6 +755,8 @@ Status parse_as(Format f, std::string_view bytes, TetMesh& m) {
     case Format::Gmsh: return parse_gmsh(bytes, "replay", m);
     case Format::Vtk: return parse_vtk(bytes, "replay", m);
     case Format::Vtu: return parse_vtu(bytes, "replay", m);
+    case Format::Abaqus: return parse_abaqus(bytes, "replay", m);
+    case Format::Fluent: return parse_fluent(bytes, "replay", m);
     case Format::TetGen: {
       const size_t a = bytes.find('\0');
       if (a == std::string_view::npos) return Status::error(ErrorCode::Parse, "no NUL separator");
@@ -775,6 +777,8 @@ Status format_as(Format f, const TetMesh& m, std::string& out) {
     case Format::Gmsh: return format_gmsh(m, out, 41, false);
     case Format::Vtk: return format_vtk(m, out, false);
     case Format::Vtu: return format_vtu(m, out);
+    case Format::Abaqus: return format_abaqus(m, out);
+    case Format::Fluent: return format_fluent(m, out, true);
     case Format::TetGen: {
       std::string node, ele, face;
       Status s = format_tetgen(m, node, ele, face);
@@ -818,7 +822,8 @@ TEST(Regression, FuzzFindingsReplay) {
   const fs::path root = fs::path(TETOPT_SOURCE_DIR) / "tests" / "regression";
   const std::pair<const char*, Format> dirs[] = {{"medit", Format::Medit}, {"meditb", Format::MeditBinary},
                                                  {"gmsh", Format::Gmsh},   {"vtk", Format::Vtk},
-                                                 {"vtu", Format::Vtu},     {"tetgen", Format::TetGen}};
+                                                 {"vtu", Format::Vtu},     {"tetgen", Format::TetGen},
+                                                 {"abaqus", Format::Abaqus}, {"fluent", Format::Fluent}};
   int files = 0;
   for (const auto& [name, f] : dirs) {
     if (!fs::exists(root / name)) continue;
