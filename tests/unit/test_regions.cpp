@@ -46,7 +46,9 @@ TEST(Regions, GroupKeepsEachRegionsOrderAndPutsRegionsInTheGivenOrder) {
   // within a region, old order kept
   for (int32_t a = 0; a + 1 < before.nt(); ++a)
     for (int32_t b = a + 1; b < before.nt() && b < a + 40; ++b)
-      if (before.tet_ref[a] == before.tet_ref[b]) EXPECT_LT(new_id[a], new_id[b]);
+      if (before.tet_ref[a] == before.tet_ref[b]) {
+        EXPECT_LT(new_id[a], new_id[b]);
+      }
   EXPECT_TRUE(m.adj.empty());
   EXPECT_TRUE(build_topology(m));
   // Grouped already: nothing moves.
