@@ -330,19 +330,35 @@ void cheap_apex_values(const double* a, const double* b, const double* c, double
 }
 }  // namespace
 
+namespace {
+// cheap_apex_value for the other measures (ApexObjective 3 .. 7, out[o - 3])
+// from one frame and one candidate set.
+void cheap_other_values(const double* a, const double* b, const double* c, double out[kApexObjectives - 3]) {
+  const Frame f(a, b, c);
+  for (int o = 3; o < kApexObjectives; ++o) {
+    const ApexObjective obj = static_cast<ApexObjective>(o);
+    double best = -std::numeric_limits<double>::infinity();
+    if (f.degenerate) {
+      best = to_public(obj, degenerate_value(obj));
+    } else {
+      const ApexMeasure g{f, obj};
+      for (const Vec3& p : candidates(f)) best = std::max(best, g(p));
+    }
+    out[o - 3] = to_public(obj, best);
+  }
+}
+}  // namespace
+
 double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj) {
-  if (static_cast<int>(obj) < 3) {
+  const int o = static_cast<int>(obj);
+  if (o < 3) {
     double v[3];
     cheap_apex_values(a, b, c, v);
-    return v[static_cast<int>(obj)];
+    return v[o];
   }
-  // The other measures: the best candidate apex, one objective at a time.
-  const Frame f(a, b, c);
-  if (f.degenerate) return degenerate_value(obj);
-  const ApexMeasure g{f, obj};
-  double best = -std::numeric_limits<double>::infinity();
-  for (const Vec3& p : candidates(f)) best = std::max(best, g(p));
-  return to_public(obj, best);
+  double v[kApexObjectives - 3];
+  cheap_other_values(a, b, c, v);
+  return v[o - 3];
 }
 
 namespace {
@@ -502,9 +518,11 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
     cheap[1][i] = std::max(qmin, best[1]);
     cheap[2][i] = -std::min(qmax, best[2]);
     if (nobj > 3) {  // the other measures: the best candidate apex (achieved)
+      double other[kApexObjectives - 3];
+      cheap_other_values(p[0], p[1], p[2], other);
       for (int o = 3; o < nobj; ++o) {
         const ApexObjective obj = static_cast<ApexObjective>(o);
-        cheap[o][i] = to_public(obj, cheap_apex_value(p[0], p[1], p[2], obj));
+        cheap[o][i] = to_public(obj, other[o - 3]);
       }
     }
   });

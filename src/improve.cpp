@@ -406,11 +406,10 @@ class Driver {
   // default: item 4 of issue 26 keeps the default within 1.1x.
   static constexpr int kPolishSweeps = 10;
   double polish_mean(double mean_input, bool always) {
-    if (stopped() || !guard_) return mean_alpha();
-    if (!always && !(mean_alpha() < mean_input)) return mean_alpha();
+    const double mean_before = mean_alpha();
+    if (stopped() || !guard_ || (!always && !(mean_before < mean_input))) return mean_before;
     refresh_guard();
     const auto t = Clock::now();
-    const double mean_before = mean_alpha();
     // The driver's cache holds the objective's q: dropped before and after
     // when that is not alpha.
     const bool other = o_.objective != Objective::Alpha;

@@ -13,6 +13,7 @@
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
 #include "detail/parallel.hpp"
+#include "detail/permute_tets.hpp"
 #include "detail/sum.hpp"
 
 namespace tetopt {
@@ -684,25 +685,7 @@ void sort_tets_spatially(TetMesh& m, int threads, std::vector<int32_t>* order) {
   std::sort(key.begin(), key.end());
   if (order)
     for (int32_t i = 0; i < nt; ++i) (*order)[static_cast<size_t>(i)] = key[static_cast<size_t>(i)].second;
-  std::vector<int32_t> tets(m.tets.size()), ref(static_cast<size_t>(nt));
-  const bool has_entity = m.tet_entity.size() == static_cast<size_t>(nt);
-  std::vector<int32_t> ent(has_entity ? static_cast<size_t>(nt) : 0);
-  for (int32_t i = 0; i < nt; ++i) {
-    const int32_t t = key[static_cast<size_t>(i)].second;
-    std::copy(m.tet(t), m.tet(t) + 4, &tets[4 * static_cast<size_t>(i)]);
-    ref[static_cast<size_t>(i)] = m.tet_ref[static_cast<size_t>(t)];
-    if (has_entity) ent[static_cast<size_t>(i)] = m.tet_entity[static_cast<size_t>(t)];
-  }
-  m.tets = std::move(tets);
-  m.tet_ref = std::move(ref);
-  if (has_entity) m.tet_entity = std::move(ent);
-  // Whatever topology was built refers to the old tet numbers.
-  m.adj.clear();
-  m.vt_offsets.clear();
-  m.vt_tets.clear();
-  m.face_mask.clear();
-  m.tet_kind.clear();
-  m.topology_epoch++;
+  detail::permute_tets(m, [&](int32_t i) { return key[static_cast<size_t>(i)].second; });
 }
 
 double tet_order_spread(const TetMesh& m, int threads) {

@@ -11,6 +11,7 @@
 
 #include "tetopt/conventions.hpp"
 #include "tetopt/mesh.hpp"
+#include "detail/permute_tets.hpp"
 
 namespace tetopt {
 
@@ -60,23 +61,7 @@ bool group_tets_by_region(TetMesh& m, const std::vector<RegionKey>& keys, std::v
     for (int32_t i = 0; i < nt; ++i) (*new_id)[static_cast<size_t>(perm[static_cast<size_t>(i)])] = i;
   }
   if (!moved) return false;
-  std::vector<int32_t> tets(m.tets.size()), ref(static_cast<size_t>(nt)), ent(has_entity ? static_cast<size_t>(nt) : 0);
-  for (int32_t i = 0; i < nt; ++i) {
-    const int32_t t = perm[static_cast<size_t>(i)];
-    std::copy(m.tet(t), m.tet(t) + 4, &tets[4 * static_cast<size_t>(i)]);
-    ref[static_cast<size_t>(i)] = m.tet_ref[static_cast<size_t>(t)];
-    if (has_entity) ent[static_cast<size_t>(i)] = m.tet_entity[static_cast<size_t>(t)];
-  }
-  m.tets = std::move(tets);
-  m.tet_ref = std::move(ref);
-  if (has_entity) m.tet_entity = std::move(ent);
-  // Whatever topology was built refers to the old tet numbers.
-  m.adj.clear();
-  m.vt_offsets.clear();
-  m.vt_tets.clear();
-  m.face_mask.clear();
-  m.tet_kind.clear();
-  m.topology_epoch++;
+  detail::permute_tets(m, [&](int32_t i) { return perm[static_cast<size_t>(i)]; });
   return true;
 }
 

@@ -81,15 +81,13 @@ void on_terminating_signal(int sig) {
 }
 
 namespace {
-std::string g_last_input;
+std::string g_last_input;  // also what g_reading points at while reading
 }
 const std::string& last_input() { return g_last_input; }
 
 Status read_input(const std::string& path, TetMesh& m, OrientationReport* orient, int threads) {
-  static std::string reading;
-  reading = shown(path);
-  g_last_input = reading;
-  g_reading = reading.c_str();
+  g_last_input = shown(path);
+  g_reading = g_last_input.c_str();
   Status s = read_mesh(path, m, orient, threads);
   g_reading = nullptr;
   return s;
