@@ -1,6 +1,9 @@
 // Private helpers shared by the format readers and writers.
 #pragma once
+#include <algorithm>
+#include <charconv>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -100,6 +103,30 @@ inline Format format_family(Format f) { return f == Format::MeditBinary ? Format
 inline bool write_flipped(const TetMesh& m, Format target) {
   if (format_family(target) == format_family(static_cast<Format>(m.source_format))) return m.flipped_on_read;
   return false;
+}
+
+/// The writers' number formatting, shared by the text and binary writers.
+/// An integer in decimal.
+inline void put_int(std::string& out, int64_t v) {
+  char buf[24];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+/// A double in the shortest form that reads back bit-identical.
+inline void put_real(std::string& out, double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+/// v's bytes in little-endian order (OpenFOAM "arch LSB", Fluent binary).
+template <class T>
+void put_raw_le(std::string& out, T v) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+  std::reverse(b, b + sizeof(T));
+#endif
+  out.append(reinterpret_cast<const char*>(b), sizeof(T));
 }
 
 /// Vertex ids of tet t in the orientation a writer of `target` uses.

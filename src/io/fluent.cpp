@@ -552,20 +552,8 @@ void put_hex(std::string& out, int64_t v) {
   const auto r = std::to_chars(buf, buf + sizeof buf, v, 16);
   out.append(buf, r.ptr);
 }
-void put_double(std::string& out, double v) {
-  char buf[40];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  out.append(buf, r.ptr);
-}
-template <class T>
-void put_raw(std::string& out, T v) {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
-  std::reverse(b, b + sizeof(T));
-#endif
-  out.append(reinterpret_cast<const char*>(b), sizeof(T));
-}
+using detail::put_raw_le;
+void put_double(std::string& out, double v) { detail::put_real(out, v); }
 
 /// A zone name as Fluent's syntax takes it: no blanks or parentheses.
 std::string fluent_word(const std::string& s, bool& changed) {
@@ -832,7 +820,7 @@ Status format_fluent(const TetMesh& m, std::string& out, bool binary) {
     const double* x = m.point(v);
     for (int k = 0; k < 3; ++k) {
       if (binary) {
-        put_raw(out, x[k]);
+        put_raw_le(out, x[k]);
       } else {
         if (k) out += ' ';
         put_double(out, x[k]);
@@ -872,7 +860,7 @@ Status format_fluent(const TetMesh& m, std::string& out, bool binary) {
                                w.second >= 0 ? plan.cell_of[w.second] + 1 : 0};
       for (int k = 0; k < 5; ++k) {
         if (binary) {
-          put_raw(out, static_cast<int32_t>(vals[k]));
+          put_raw_le(out, static_cast<int32_t>(vals[k]));
         } else {
           if (k) out += ' ';
           put_hex(out, vals[k]);

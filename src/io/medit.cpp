@@ -961,16 +961,8 @@ Status check_for_write(const TetMesh& m) {
 
 int32_t ref_of(const std::vector<int32_t>& r, size_t i) { return i < r.size() ? r[i] : 0; }
 
-void put_int(std::string& out, int64_t v) {
-  char buf[24];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  out.append(buf, r.ptr);
-}
-void put_real(std::string& out, double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);  // shortest round-trip form
-  out.append(buf, r.ptr);
-}
+using detail::put_int;
+using detail::put_real;
 
 void put_list(std::string& out, const char* kw, const std::vector<int32_t>& ids) {
   if (ids.empty()) return;

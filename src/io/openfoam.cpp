@@ -952,26 +952,9 @@ Status make_plan(const TetMesh& m, Plan& plan) {
 
 // ---- output helpers ----
 
-void put_int(std::string& out, int64_t v) {
-  char buf[24];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  out.append(buf, r.ptr);
-}
-void put_double(std::string& out, double v) {
-  char buf[40];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  out.append(buf, r.ptr);
-}
-/// Little-endian raw bytes of v (the writer's arch is LSB).
-template <class T>
-void put_raw(std::string& out, T v) {
-  unsigned char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
-  std::reverse(b, b + sizeof(T));
-#endif
-  out.append(reinterpret_cast<const char*>(b), sizeof(T));
-}
+using detail::put_int;
+using detail::put_raw_le;
+void put_double(std::string& out, double v) { detail::put_real(out, v); }
 
 void header(std::string& out, bool binary, const char* cls, const char* object, const std::string& note = {}) {
   out += "/*--------------------------------*- C++ -*----------------------------------*\\\n"
@@ -994,7 +977,7 @@ void label_list(std::string& out, const std::vector<int32_t>& v, bool binary) {
   out += binary ? "\n(" : "\n(\n";
   for (int32_t x : v) {
     if (binary) {
-      put_raw(out, x);
+      put_raw_le(out, x);
     } else {
       put_int(out, x);
       out += '\n';
@@ -1043,7 +1026,7 @@ Status format_openfoam(const TetMesh& m, std::string* out, bool binary) {
   for (int32_t v = 0; v < m.nv(); ++v) {
     const double* x = m.point(v);
     if (binary) {
-      for (int k = 0; k < 3; ++k) put_raw(p, x[k]);
+      for (int k = 0; k < 3; ++k) put_raw_le(p, x[k]);
     } else {
       p += '(';
       for (int k = 0; k < 3; ++k) {
