@@ -10,6 +10,7 @@
 
 #include "tetopt/quality.hpp"
 #include "tetopt/topo.hpp"
+#include "detail/edge_key.hpp"
 
 namespace tetopt {
 
@@ -63,6 +64,171 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   ed.finish();
   st.vertices_after = m.nv() - st.removed;
   st.tets_after = m.nt();
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
+
+
+namespace {
+
+double dist(const double* a, const double* b) {
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+// The size field of RemeshOptions (see insert.hpp).
+void size_field(const TetMesh& m, double size, std::vector<double>& h) {
+  const int32_t nv = m.nv();
+  h.assign(nv, 0.0);
+  if (size > 0) {
+    std::fill(h.begin(), h.end(), size);
+    return;
+  }
+  for (const auto& pf : m.point_fields)
+    if ((pf.name == "size" || pf.name == "h") && pf.components == 1 &&
+        pf.values.size() == static_cast<size_t>(nv)) {
+      bool all = true;
+      for (int32_t v = 0; v < nv && all; ++v) all = pf.values[v] > 0 && std::isfinite(pf.values[v]);
+      if (all) {
+        h = pf.values;
+        return;
+      }
+    }
+  std::vector<double> sum_c(nv, 0.0), sum_all(nv, 0.0);
+  std::vector<int32_t> n_c(nv, 0), n_all(nv, 0);
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* tv = m.tet(t);
+    if (tv[0] < 0) continue;
+    for (int le = 0; le < 6; ++le) {
+      const int32_t a = tv[kEdgeVertex[le][0]], b = tv[kEdgeVertex[le][1]];
+      const double l = dist(m.point(a), m.point(b));
+      sum_all[a] += l; sum_all[b] += l; ++n_all[a]; ++n_all[b];
+    }
+    const uint8_t mask = m.face_mask[t];
+    for (int f = 0; f < 4; ++f) {
+      if (!((mask >> f) & 1u)) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int32_t a = tv[kFaceVertex[f][k]], b = tv[kFaceVertex[f][(k + 1) % 3]];
+        const double l = dist(m.point(a), m.point(b));
+        sum_c[a] += l; sum_c[b] += l; ++n_c[a]; ++n_c[b];
+      }
+    }
+  }
+  double mean = 0;
+  int64_t cnt = 0;
+  for (int32_t v = 0; v < nv; ++v) {
+    if (n_c[v]) h[v] = sum_c[v] / n_c[v];
+    else if (n_all[v]) h[v] = sum_all[v] / n_all[v];
+    if (h[v] > 0) { mean += h[v]; ++cnt; }
+  }
+  for (int32_t v = 0; v < nv; ++v)
+    if (!(h[v] > 0)) h[v] = cnt ? mean / cnt : 1.0;
+}
+
+struct EdgeRef {
+  double l;      // length over the size
+  uint64_t key;  // edge_key(a, b)
+  int32_t t;
+  int8_t le;
+};
+
+}  // namespace
+
+RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions& o, const LogFn& log) {
+  const auto t0 = std::chrono::steady_clock::now();
+  RemeshStats st;
+  if (m.adj.size() != m.tets.size() || m.tet_kind.size() != m.tets.size() / 4 ||
+      m.vert_constrained.size() != static_cast<size_t>(m.nv())) {
+    st.status = build_topology(m);
+    if (!st.status) return st;
+  }
+  ensure_vertex_tets(m);
+  if (h.size() != static_cast<size_t>(m.nv())) size_field(m, o.size, h);
+  TopoOptions to;
+  to.objective = o.objective;
+  to.guard = o.guard;
+  to.stop = o.stop;
+  TopoEditor ed(m, to);
+  Acceptance acc;
+  acc.on = true;
+  acc.floor = ed.min_cached();
+  acc.cap = o.cap;
+  acc.ratio = o.ratio;
+  std::vector<EdgeRef> edges;
+  auto collect = [&](bool longer) {
+    edges.clear();
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      if (!ed.alive(t)) continue;
+      const int32_t* tv = m.tet(t);
+      for (int le = 0; le < 6; ++le) {
+        const int32_t a = tv[kEdgeVertex[le][0]], b = tv[kEdgeVertex[le][1]];
+        const double l = dist(m.point(a), m.point(b)) * 2 / (h[a] + h[b]);
+        if (longer ? l > o.split_above : l < o.collapse_below) {
+          if (!longer && (m.vert_constrained[a] || a < o.removable_from) &&
+              (m.vert_constrained[b] || b < o.removable_from))
+            continue;
+          edges.push_back({l, detail::edge_key(a, b), t, static_cast<int8_t>(le)});
+        }
+      }
+    }
+    std::sort(edges.begin(), edges.end(), [](const EdgeRef& x, const EdgeRef& y) {
+      return x.key != y.key ? x.key < y.key : x.t < y.t;
+    });
+    edges.erase(std::unique(edges.begin(), edges.end(), [](const EdgeRef& x, const EdgeRef& y) { return x.key == y.key; }),
+                edges.end());
+    // Longest first for splits, shortest first for collapses; ties by key.
+    std::sort(edges.begin(), edges.end(), [&](const EdgeRef& x, const EdgeRef& y) {
+      if (x.l != y.l) return longer ? x.l > y.l : x.l < y.l;
+      return x.key < y.key;
+    });
+  };
+  auto still = [&](const EdgeRef& e) {
+    if (!ed.alive(e.t)) return false;
+    const int32_t* tv = m.tet(e.t);
+    return detail::edge_key(tv[kEdgeVertex[e.le][0]], tv[kEdgeVertex[e.le][1]]) == e.key;
+  };
+  // A split destroys its shell, so the other long edges of those tets wait
+  // for the next collection: splits repeat (collect, split) until a
+  // collection finds little left to do, then collapses do the same.
+  auto stopped = [&] { return o.stop && o.stop->load(std::memory_order_relaxed); };
+  for (int sweep = 0; sweep < std::max(1, o.sweeps) && !stopped(); ++sweep) {
+    int64_t splits = 0, collapses = 0;
+    for (int loop = 0; loop < o.max_loops && !stopped(); ++loop) {
+      collect(true);
+      if (loop == 0) st.long_edges = static_cast<int64_t>(edges.size());
+      int64_t n = 0;
+      for (const EdgeRef& e : edges) {
+        if (!still(e)) continue;
+        const int32_t a = m.tet(e.t)[kEdgeVertex[e.le][0]], b = m.tet(e.t)[kEdgeVertex[e.le][1]];
+        const double hn = 0.5 * (h[a] + h[b]);
+        if (ed.split_edge(e.t, e.le, acc) == TopoResult::Applied) {
+          h.push_back(hn);
+          ++n;
+        }
+      }
+      splits += n;
+      if (n <= static_cast<int64_t>(0.02 * static_cast<double>(edges.size()))) break;
+    }
+    for (int loop = 0; loop < o.max_loops && !stopped(); ++loop) {
+      collect(false);
+      if (loop == 0) st.short_edges = static_cast<int64_t>(edges.size());
+      int64_t n = 0;
+      for (const EdgeRef& e : edges) {
+        if (!still(e)) continue;
+        if (ed.collapse_edge(e.t, e.le, acc, o.removable_from) == TopoResult::Applied) ++n;
+      }
+      collapses += n;
+      if (n <= static_cast<int64_t>(0.02 * static_cast<double>(edges.size()))) break;
+    }
+    st.splits += splits;
+    st.collapses += collapses;
+    if (log)
+      log(LogLevel::Info, "remesh sweep " + std::to_string(sweep + 1) + ": " + std::to_string(st.long_edges) +
+                              " long edges, " + std::to_string(splits) + " split; " + std::to_string(st.short_edges) +
+                              " short, " + std::to_string(collapses) + " collapsed");
+    if (splits + collapses == 0) break;
+  }
+  st.removed_vertices = ed.removed();
+  ed.finish();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

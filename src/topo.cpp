@@ -372,8 +372,8 @@ bool TopoEditor::alive(int32_t t) const {
 
 // ---------------------------------------------------------------------------
 // Edge removal: gather the shell of edge (a,b), triangulate the ring by DP.
-TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c, double bound,
-                                 std::vector<int32_t>* reads) const {
+TopoResult TopoEditor::gather_shell(int32_t t, int le, int32_t& a, int32_t& b, int32_t* ring, int32_t* shell, int& n,
+                                    std::vector<int32_t>* reads) const {
   if (!alive(t) || le < 0 || le > 5) return TopoResult::NotApplicable;
   const int32_t* tv = m_.tet(t);
   int p[4] = {kEdgeVertex[le][0], kEdgeVertex[le][1], 0, 0};
@@ -384,15 +384,15 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
     if (odd_perm(p)) std::swap(p[2], p[3]);
   }
   // orient(a, b, ring[i], ring[i+1]) > 0 for every shell tet (a, b, r_i, r_i+1).
-  const int32_t a = tv[p[0]], b = tv[p[1]];
+  a = tv[p[0]];
+  b = tv[p[1]];
   note(reads, t);
   if (!listed_edges_.empty() && std::binary_search(listed_edges_.begin(), listed_edges_.end(), edge_key(a, b)))
     return TopoResult::BoundaryLocked;
-  int32_t ring[kMaxShell + 2], shell[kMaxShell + 1];
   ring[0] = tv[p[2]];
   ring[1] = tv[p[3]];
   shell[0] = t;
-  int n = 1;
+  n = 1;
   const int32_t ref = m_.tet_ref[t];
   const bool has_entity = !m_.tet_entity.empty();
   const int32_t ent = has_entity ? m_.tet_entity[t] : 0;
@@ -427,10 +427,20 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
     if (TopoResult r = cross(t, p[3], nb); r != TopoResult::Applied) return r;
     if (nb / 4 != shell[n - 1]) return TopoResult::NotApplicable;
   }
-  if (want_n > 0 && n != want_n) return TopoResult::NotApplicable;
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
       if (ring[i] == ring[j] || shell[i] == shell[j]) return TopoResult::NotApplicable;
+  return TopoResult::Applied;
+}
+
+TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Candidate& c, double bound,
+                                 std::vector<int32_t>* reads) const {
+  int32_t a, b, ring[kMaxShell + 2], shell[kMaxShell + 1];
+  int n = 0;
+  if (TopoResult r = gather_shell(t, le, a, b, ring, shell, n, reads); r != TopoResult::Applied) return r;
+  if (want_n > 0 && n != want_n) return TopoResult::NotApplicable;
+  const int32_t ref = m_.tet_ref[t];
+  const int32_t ent = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
 
   c.kind = Candidate::Edge;
   c.size = n;
@@ -671,7 +681,8 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
     if (k4) worst_k4 = std::min(worst_k4, c.new_alpha[i]);
   }
   c.new_min = worst;
-  bool ok = c.new_min > c.old_min + o_.margin || (any_valid_ && c.new_min > 0) || restoring_;
+  bool ok = c.new_min > c.old_min + o_.margin || (any_valid_ && c.new_min > 0) || restoring_ ||
+            (accept_ && c.new_min >= accept_.floor_for(c.old_min) && c.new_min > 0);
   // May-worsen policy (Liu et al. §4): fewer kind-4 tets, and only tets that
   // smoothing can still fix (kind < 4) may fall below the old worst alpha.
   if (!ok && !strict && !o_.must_improve)
@@ -1129,7 +1140,21 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   return TopoResult::Applied;
 }
 
-TopoResult TopoEditor::remove_vertex(int32_t t) {
+TopoResult TopoEditor::remove_vertex(int32_t t) { return contract(t, -1, -1); }
+
+TopoResult TopoEditor::collapse_edge(int32_t t, int le, const Acceptance& acc, int32_t removable_from) {
+  if (!alive(t) || le < 0 || le > 5) return TopoResult::NotApplicable;
+  const int32_t a = m_.tet(t)[kEdgeVertex[le][0]], b = m_.tet(t)[kEdgeVertex[le][1]];
+  accept_ = acc;
+  accept_.on = true;
+  TopoResult r = m_.vert_constrained[a] || a < removable_from ? TopoResult::BoundaryLocked : contract(t, a, b);
+  if (r != TopoResult::Applied && !m_.vert_constrained[b] && b >= removable_from) r = contract(t, b, a);
+  accept_ = {};
+  if (r == TopoResult::Applied) ++stats_.collapses;
+  return r;
+}
+
+TopoResult TopoEditor::contract(int32_t t, int32_t only_v, int32_t only_w) {
   if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
   const bool has_entity = !m_.tet_entity.empty();
   TopoResult why = TopoResult::NotApplicable;
@@ -1138,6 +1163,7 @@ TopoResult TopoEditor::remove_vertex(int32_t t) {
   double best_min = -kInf;
   for (int k = 0; k < 4; ++k) {
     const int32_t v = m_.tet(t)[k];
+    if (only_v >= 0 && v != only_v) continue;
     if (m_.vert_constrained[v]) {
       if (why == TopoResult::NotApplicable) why = TopoResult::BoundaryLocked;
       continue;
@@ -1203,7 +1229,11 @@ TopoResult TopoEditor::remove_vertex(int32_t t) {
       }
     for (int j = 0; j < nn; ++j) {
       const int32_t w = nbr[j];
-      const double floor = std::max(best_min, c.old_min + o_.margin);
+      if (only_w >= 0 && w != only_w) continue;
+      // Improvement by the margin, or (collapse_edge) the caller's floor.
+      const double floor =
+          accept_ ? std::max(best_min, std::nextafter(accept_.floor_for(c.old_min), -kInf))
+                  : std::max(best_min, c.old_min + o_.margin);
       // Worst alpha of the cone from w, stopping once it cannot win.
       double worst = kInf;
       c.n_new = 0;
@@ -1232,6 +1262,99 @@ TopoResult TopoEditor::remove_vertex(int32_t t) {
   if (!have) return why;
   commit(*best_);
   removed_.push_back(best_v);
+  return TopoResult::Applied;
+}
+
+TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, double wa) {
+  if (o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
+  int32_t a, b, ring[kMaxShell + 2], shell[kMaxShell + 1];
+  int n = 0;
+  if (TopoResult r = gather_shell(t, le, a, b, ring, shell, n, nullptr); r != TopoResult::Applied) return r;
+  Candidate& c = *cand_;
+  c.kind = Candidate::Insert;
+  c.size = 1;
+  c.ref = m_.tet_ref[t];
+  c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
+  c.n_old = n;
+  c.old_min = kInf;
+  c.k4_old = 0;
+  for (int i = 0; i < n; ++i) {
+    c.old_tets[i] = shell[i];
+    c.old_min = std::min(c.old_min, cached_alpha(shell[i]));
+    c.k4_old += m_.tet_kind[shell[i]] == 4;
+  }
+  // The shell (a, b, r_i, r_i+1) becomes (p, b, r_i, r_i+1) and
+  // (a, p, r_i, r_i+1): the cone from p over the shell's outer faces, valid
+  // for any p that sees them all (exact orient3d below).
+  const double floor = acc.floor_for(c.old_min);
+  const double* pa = m_.point(a);
+  const double* pb = m_.point(b);
+  auto fan = [&](const double* x, double stop) {
+    double w = kInf;
+    for (int i = 0; i < n && w > stop; ++i) {
+      const double* r0 = m_.point(ring[i]);
+      const double* r1 = m_.point(ring[(i + 1) % n]);
+      w = std::min(w, quality(x, pb, r0, r1));
+      if (w > stop) w = std::min(w, quality(pa, x, r0, r1));
+    }
+    return w;
+  };
+  double x[3];
+  for (int d = 0; d < 3; ++d) x[d] = wa * pa[d] + (1 - wa) * pb[d];
+  double fx = fan(x, -kInf);
+  if (fx < floor) {
+    // A short compass search from the split point (Klingner & Shewchuk
+    // 2007 place an inserted vertex to maximise its cavity's worst quality).
+    const double len = std::sqrt((pa[0] - pb[0]) * (pa[0] - pb[0]) + (pa[1] - pb[1]) * (pa[1] - pb[1]) +
+                                 (pa[2] - pb[2]) * (pa[2] - pb[2]));
+    double h = 0.1 * len;
+    static constexpr double kDir[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int evals = 0; h > 1e-3 * len && evals < 96;) {
+      bool moved = false;
+      for (int k = 0; k < 6; ++k) {
+        const double y[3] = {x[0] + h * kDir[k][0], x[1] + h * kDir[k][1], x[2] + h * kDir[k][2]};
+        const double fy = fan(y, fx);
+        ++evals;
+        if (fy > fx) {
+          fx = fy;
+          std::copy(y, y + 3, x);
+          moved = true;
+          break;
+        }
+      }
+      if (!moved) h *= 0.5;
+    }
+    if (fx < floor) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
+  }
+  const int32_t nv = m_.nv();
+  const bool has_vref = m_.vert_ref.size() == static_cast<size_t>(nv);
+  m_.xyz.insert(m_.xyz.end(), x, x + 3);
+  if (has_vref) m_.vert_ref.push_back(0);
+  m_.vert_constrained.push_back(0);
+  for (auto& pf : m_.point_fields) pf.values.insert(pf.values.end(), pf.components, 0.0);
+  vstamp_.push_back(0);
+  c.n_new = 2 * n;
+  for (int i = 0; i < n; ++i) {
+    const int32_t r0 = ring[i], r1 = ring[(i + 1) % n];
+    int32_t* q0 = c.quad[2 * i];
+    q0[0] = nv; q0[1] = b; q0[2] = r0; q0[3] = r1;
+    int32_t* q1 = c.quad[2 * i + 1];
+    q1[0] = a; q1[1] = nv; q1[2] = r0; q1[3] = r1;
+  }
+  accept_ = acc;
+  accept_.on = true;
+  const TopoResult r = finish_plan(true, c);
+  accept_ = {};
+  if (r != TopoResult::Applied) {
+    m_.xyz.resize(3 * static_cast<size_t>(nv));
+    if (has_vref) m_.vert_ref.pop_back();
+    m_.vert_constrained.pop_back();
+    for (auto& pf : m_.point_fields) pf.values.resize(pf.values.size() - pf.components);
+    vstamp_.pop_back();
+    return r;
+  }
+  commit(c);
+  ++stats_.splits;
   return TopoResult::Applied;
 }
 

@@ -168,6 +168,12 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
       if (!number(d)) return R::Error;
       if (d < 0.5 || d >= 1) return bad("--weight must satisfy 0.5 <= C < 1");
       a.opt.weight = d;
+    } else if (o == "--size") {
+      if (!number(d)) return R::Error;
+      if (!(d > 0) || !std::isfinite(d)) return bad("--size must be a positive length");
+      a.opt.size = d;
+    } else if (o == "--no-remesh") {
+      a.opt.remesh = false;
     } else if (o == "--threshold") {
       if (!number(d)) return R::Error;
       if (d <= 0 || d > 1) return bad("--threshold must be in (0, 1]");

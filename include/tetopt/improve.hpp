@@ -72,6 +72,14 @@ struct ImproveOptions {
   /// dropped at the end (compact_vertices: the other vertices keep their
   /// order, ids shift down) unless keep_vertex_ids is set.
   bool allow_remove = false;
+  /// With allow_insert, mode best: the interior remesher first (insert.hpp,
+  /// remesh_pass): sweeps of edge splits toward the size field, collapses of
+  /// short edges (of vertices the remesher made, or any free vertex with
+  /// allow_remove), flips and smoothing, before the rounds.  > 0: the target
+  /// edge length everywhere (--size); 0: the size field of remesh_pass (a
+  /// point field "size", else the constrained triangles' edge lengths).
+  double size = 0;
+  bool remesh = true;  ///< false: allow_insert inserts only in the cavities of the worst tets (the former mode)
   /// With allow_remove: leave removed vertices in the array, referenced by no
   /// tet (ImproveReport::removed_vertices), so every id stays valid (tetopt-mpi
   /// merges parts by id and drops them once at the end).
@@ -109,6 +117,9 @@ struct ImproveReport {
   int64_t all_boundary_removed = 0;
   int64_t insertions = 0;     ///< vertices inserted (allow_insert)
   int64_t removals = 0;       ///< vertices removed (allow_remove)
+  int64_t edge_splits = 0;    ///< the remesher's edge splits (also counted in insertions)
+  int64_t edge_collapses = 0; ///< the remesher's edge collapses (also counted in removals)
+  double seconds_remesh = 0;  ///< the remesher's split / collapse sweeps (also counted in topo)
   /// Ids (in the numbering before the final compaction) of the removed vertices.
   std::vector<int32_t> removed_vertices;
   int64_t untangled = 0;      ///< input tets that were inverted or flat and are now positive

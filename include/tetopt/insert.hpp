@@ -23,6 +23,7 @@
 // evaluations; a pass is O(nt) to scan plus the visited tets, then one
 // TopoEditor::finish().  Impeller (438k tets) with --allow-insert: 73 s.
 #pragma once
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -66,5 +67,62 @@ struct InsertStats {
 /// the topology if missing and leaves it current.  Deterministic (index
 /// order).  The mesh's worst alpha never decreases.
 InsertStats insert_pass(TetMesh& m, const InsertOptions& o = {}, const LogFn& log = {});
+
+/// The interior remesher's refinement and coarsening (issue 27), the logic
+/// of MMG's -optim on a size field (Dapogny, Dobrzynski & Frey 2014, "Three-
+/// dimensional adaptive domain remeshing, implicit domain meshing, and
+/// applications to free and moving boundary problems", §4: split edges
+/// longer than ~1.4 h, collapse those shorter than ~0.7 h; smoothing and
+/// swaps in between).  Only edges on no constrained face are split, and only
+/// free vertices are collapsed away, so the boundary, the interfaces and
+/// every listed entity stay bit for bit.
+///
+/// Size field h per vertex, in this order: RemeshOptions::size (> 0: one
+/// size everywhere); else a 1-component point field named "size" or "h"
+/// (values > 0); else, for a vertex on a constrained triangle, the mean
+/// length of the constrained triangles' edges at it (the surface's own
+/// size), and for any other vertex the mean length of its edges.  A vertex
+/// made by a split gets the mean of its edge's two sizes.  An edge ab is
+/// long when |ab| > split_above * (h_a + h_b) / 2 and short when
+/// |ab| < collapse_below * (h_a + h_b) / 2.
+///
+/// A split or collapse is taken when its new tets are exactly positive, pass
+/// the guards and their worst quality is at least max(floor, ratio *
+/// min(old worst, cap)) (Acceptance, topo.hpp), with floor >= the mesh's
+/// worst quality at the start: the worst tet never gets worse.
+struct RemeshOptions {
+  double size = 0;              ///< > 0: target edge length everywhere
+  double split_above = 1.4;     ///< split edges longer than this times the size
+  double collapse_below = 0.6;  ///< collapse edges shorter than this times the size
+  int sweeps = 1;               ///< split + collapse sweeps in this call
+  /// Per sweep, up to this many (collect long edges, split them) loops,
+  /// ending when one splits at most 2% of what it found; then the same for
+  /// collapses.
+  int max_loops = 2;
+  double cap = 0.3;             ///< Acceptance::cap
+  double ratio = 0.9;           ///< Acceptance::ratio
+  /// Vertices with an id below this are never collapsed away (the input's,
+  /// without --allow-remove); constrained vertices never are.
+  int32_t removable_from = 0;
+  Objective objective = Objective::Alpha;
+  const Guard* guard = nullptr;
+  const std::atomic<bool>* stop = nullptr;
+};
+
+struct RemeshStats {
+  int64_t splits = 0, collapses = 0;
+  int64_t long_edges = 0;   ///< long edges found by the last sweep (before its splits)
+  int64_t short_edges = 0;  ///< short edges found by the last sweep
+  std::vector<int32_t> removed_vertices;
+  double seconds = 0;
+  Status status;
+};
+
+/// One or more split / collapse sweeps (see RemeshOptions).  `h` is the size
+/// field: when its size is not m.nv() it is computed as described above; on
+/// return it has an entry for every vertex, new ones included (removed
+/// vertices keep theirs).  Builds the topology when missing and leaves it
+/// current (removed vertices stay in the array, unreferenced).
+RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions& o = {}, const LogFn& log = {});
 
 }  // namespace tetopt

@@ -59,6 +59,7 @@
 // pass touches only the tets it is told to (kind 4, or alpha below a
 // threshold) plus O(nt) for the alpha cache and the final rebuild.
 #pragma once
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <limits>
@@ -174,7 +175,9 @@ struct TopoStats {
   int64_t multi_face_removals = 0;  ///< multi-face removals of two or more faces
   int64_t flip22 = 0;               ///< always 0 (see flip_22)
   int64_t insertions = 0;           ///< vertices inserted (insert_vertex)
-  int64_t removals = 0;             ///< free vertices removed (remove_vertex)
+  int64_t removals = 0;             ///< free vertices removed (remove_vertex, collapse_edge)
+  int64_t splits = 0;               ///< edges split (split_edge; also counted in insertions)
+  int64_t collapses = 0;            ///< edges collapsed (collapse_edge; also counted in removals)
   int64_t pairs = 0;                ///< improve_tet_pair: two-operation changes (each also counted above)
   int64_t all_boundary_removed = 0; ///< operations that removed a kind-4 tet they were aimed at
   int64_t kind4_before = 0, kind4_after = 0;  ///< kind-4 tets before / after the call
@@ -187,6 +190,17 @@ struct TopoStats {
   int64_t applied() const {
     return flip23 + flip32 + flip44 + edge_removals + multi_face_removals + flip22 + insertions + removals;
   }
+};
+
+/// Acceptance of an operation that need not improve (split_edge,
+/// collapse_edge): the new tets' worst quality must be at least
+/// max(floor, ratio * min(old worst, cap)), and positive.  Off (the default)
+/// admits nothing beyond the editor's own policy.
+struct Acceptance {
+  bool on = false;
+  double floor = 0, cap = 1, ratio = 1;
+  explicit operator bool() const { return on; }
+  double floor_for(double old_min) const { return std::max(floor, ratio * std::min(old_min, cap)); }
 };
 
 /// A session of topological edits on one mesh.  Construction requires the
@@ -244,6 +258,22 @@ class TopoEditor {
   /// stays in the vertex array, referenced by no tet, and is appended to
   /// removed(); see compact_vertices (mesh.hpp).  Alpha measure only.
   TopoResult remove_vertex(int32_t t);
+  /// Edge split (the remesher's refinement, remesh_pass in insert.hpp): the
+  /// shell of local edge le of t, an edge on no constrained face and not
+  /// listed, is replaced by the cone from a new free vertex p (appended, as
+  /// insert_vertex) over the shell's outer faces, 2n tets for a shell of n.
+  /// p is wa * a + (1 - wa) * b, moved by a short compass search when that
+  /// point leaves a new tet below acc's floor.  Taken when every new tet is
+  /// exactly positive, passes the guards and acc admits the new worst (not
+  /// necessarily above the old worst: the caller chooses).  Alpha
+  /// measure only.
+  TopoResult split_edge(int32_t t, int le, const Acceptance& acc, double wa = 0.5);
+  /// Edge collapse: remove_vertex restricted to the contraction of one
+  /// endpoint of local edge le of t (a free one; a first, then b) onto the
+  /// other, taken when acc admits the new tets' worst quality; only a
+  /// vertex with id >= removable_from may go.  The removed
+  /// vertex is appended to removed().
+  TopoResult collapse_edge(int32_t t, int le, const Acceptance& acc, int32_t removable_from = 0);
   /// Vertices removed by remove_vertex, in order.
   const std::vector<int32_t>& removed() const { return removed_; }
   /// Algorithm 4 of Liu et al. on one tet: tries edge removal on each of
@@ -329,6 +359,14 @@ class TopoEditor {
   TopoResult plan_multi(int32_t t, int lf, int max_tris, bool strict, Candidate& c,
                         std::vector<int32_t>* reads) const;
   TopoResult finish_plan(bool strict, Candidate& c) const;
+  // The shell of local edge le of t: endpoints a, b, ring r_0..r_n-1 and
+  // shell tets (a, b, r_i, r_i+1), each positively oriented, n <= max_shell;
+  // refuses an edge on a constrained face, a listed edge or a boundary edge.
+  TopoResult gather_shell(int32_t t, int le, int32_t& a, int32_t& b, int32_t* ring, int32_t* shell, int& n,
+                          std::vector<int32_t>* reads) const;
+  // remove_vertex's contraction, limited to vertex only_v onto only_w (-1: any).
+  TopoResult contract(int32_t t, int32_t only_v, int32_t only_w);
+  Acceptance accept_;  // finish_plan also accepts what accept_ admits (split / collapse)
   // improve_tet without the commit: the chosen option ends in *best (the two
   // scratch pointers are swapped while options are compared).  Options whose
   // worst new alpha does not exceed `floor` are refused.

@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# The interior remesher (issue 27) on what users bring: the raw constrained
+# Delaunay tetrahedralisation (`tetgen -pQ`) of tests/data/gmsh/body_in_box.geo,
+# where all but a few tets have four boundary vertices and no vertex is
+# interior.  tetopt --allow-insert --allow-remove must keep the boundary bit
+# for bit (the referee: ../shared/tools/meshcheck.py compare, or our own
+# quality --compare when the referee is absent), raise the worst alpha at
+# least as far as the default mode, lift the mean alpha above 0.6 (the raw
+# mesh has 0.3) and leave fewer tets below alpha 0.2 than the default mode;
+# with --size it refines to the size asked; --no-remesh gives the former mode.
+# Usage: bash test_remesh.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
+set -euo pipefail
+CLI=${1:?usage: $0 TETOPT_CLI SOURCE_DIR}
+SRC=${2:?usage: $0 TETOPT_CLI SOURCE_DIR}
+PY=/usr/bin/python3
+[ -x "$CLI" ] || { echo "skip: no CLI at $CLI"; exit 77; }
+command -v gmsh >/dev/null || { echo "skip: no gmsh"; exit 77; }
+command -v tetgen >/dev/null || { echo "skip: no tetgen"; exit 77; }
+"$PY" -c 'import json' || { echo "skip: no $PY"; exit 77; }
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+
+gmsh -2 -nt 1 -setnumber s 1.0 -format mesh "$SRC/tests/data/gmsh/body_in_box.geo" -o "$T/surf.mesh" > "$T/gmsh.log" 2>&1
+tetgen -pQ "$T/surf.mesh" > "$T/tetgen.log" 2>&1
+"$CLI" convert "$T/surf.1.node" "$T/raw.mesh" > /dev/null
+"$CLI" improve "$T/raw.mesh" -o "$T/def.mesh" --report "$T/def.json" -q
+"$CLI" improve "$T/raw.mesh" -o "$T/ins.mesh" --report "$T/ins.json" -q --allow-insert --allow-remove
+"$CLI" improve "$T/raw.mesh" -o "$T/fine.mesh" --report "$T/fine.json" -q --allow-insert --size 0.15
+"$CLI" improve "$T/raw.mesh" -o "$T/old.mesh" --report "$T/old.json" -q --allow-insert --no-remesh
+
+REF="$SRC/../shared/tools/meshcheck.py"
+if [ -f "$REF" ] && "$PY" -c 'import meshio, numpy' 2>/dev/null; then
+  for x in def ins fine old; do
+    "$PY" "$REF" compare "$T/raw.mesh" "$T/$x.mesh" > "$T/ref_$x.log" 2>&1 || { cat "$T/ref_$x.log"; echo "FAIL: the referee rejects $x"; exit 1; }
+  done
+  echo "referee: all four outputs keep the boundary, no inverted tet, volumes kept"
+fi
+
+"$PY" - "$T" <<'PYEOF'
+import json, sys
+d = sys.argv[1]
+r = {x: json.load(open(f"{d}/{x}.json")) for x in ("def", "ins", "fine", "old")}
+raw = r["def"]["before"]
+def after(x): return r[x]["after"]
+def fail(msg): print("FAIL:", msg); sys.exit(1)
+for x in r:
+    inv = r[x]["boundary_unchanged"]
+    if not (inv["checked"] and inv["ok"]): fail(f"{x}: boundary_unchanged {inv}")
+print("raw: tets %d worst %.4f mean %.4f below 0.2: %d" % (raw["tets"], raw["alpha_worst"], raw["alpha_mean"], raw["alpha_below_0.2"]))
+for x in r:
+    a = after(x)
+    print("%-4s tets %6d worst %.4f mean %.4f below 0.2: %d  splits %d collapses %d" % (
+        x, a["tets"], a["alpha_worst"], a["alpha_mean"], a["alpha_below_0.2"],
+        r[x]["operations"]["edge_splits"], r[x]["operations"]["edge_collapses"]))
+ins, de = after("ins"), after("def")
+if r["ins"]["operations"]["edge_splits"] <= 0: fail("the remesher split nothing")
+if r["old"]["operations"]["edge_splits"] != 0: fail("--no-remesh still split edges")
+if r["def"]["operations"]["insertions"] != 0: fail("the default mode inserted vertices")
+if not ins["alpha_worst"] >= de["alpha_worst"]: fail("worst alpha below the default mode's")
+if not ins["alpha_worst"] >= raw["alpha_worst"]: fail("worst alpha fell")
+if not ins["alpha_mean"] > 0.6: fail("mean alpha %.4f <= 0.6" % ins["alpha_mean"])
+if not ins["alpha_below_0.2"] < de["alpha_below_0.2"]: fail("more tets below 0.2 than the default mode")
+if not after("fine")["tets"] > ins["tets"]: fail("--size 0.15 did not refine beyond the default size field")
+print("ok")
+PYEOF
