@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Issue 27's benchmark: the interior remesher (--allow-insert --allow-remove)
+# beside the default mode and MMG's -optim -nosurf, in the same run, on
+#   * raw `tetgen -pQ` output of tests/data/gmsh/body_in_box.geo (s = 0.5,
+#     0.25): a body in a flow box with no interior vertex;
+#   * the demo impeller at s = 2 (a mesher's output, two regions);
+#   * ../shared/meshes hinge_raw (raw tetgen), tire and flange when present.
+# Every output is judged by ../shared/tools/meshcheck.py compare (boundary
+# bit-identical, no inverted tet, volumes kept); worst / mean alpha and the
+# tets below alpha 0.2 come from its statistics.  Time: wall seconds of each
+# process; the ratios (insert / default, MMG / insert) are what to read.
+#   usage: bench/remesh.sh BUILD_DIR [OUT_DIR]     MMG=/path/to/mmg3d_O3 to add MMG
+set -uo pipefail
+BUILD=${1:?usage: bench/remesh.sh BUILD_DIR [OUT_DIR]}
+OUT=${2:-out/bench/remesh}
+T=$BUILD/tetopt
+PY=/usr/bin/python3
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+REF=$ROOT/../shared/tools/meshcheck.py
+SH=$ROOT/../shared/meshes
+mkdir -p "$OUT"
+meshes=()
+for s in 0.5 0.25; do
+  n=bib_$(echo $s | tr . p)
+  if [ ! -f "$OUT/$n.mesh" ]; then
+    gmsh -2 -nt 1 -setnumber s $s -format mesh "$ROOT/tests/data/gmsh/body_in_box.geo" -o "$OUT/${n}_surf.mesh" > /dev/null 2>&1
+    tetgen -pQ "$OUT/${n}_surf.mesh" > /dev/null 2>&1
+    "$T" convert "$OUT/${n}_surf.1.node" "$OUT/$n.mesh" > /dev/null
+  fi
+  meshes+=("$OUT/$n.mesh")
+done
+[ -f "$OUT/impeller_s2.mesh" ] || gmsh -3 -nt 1 -setnumber s 2 -format mesh "$ROOT/demo/impeller.geo" -o "$OUT/impeller_s2.mesh" > /dev/null 2>&1
+meshes+=("$OUT/impeller_s2.mesh")
+for f in hinge_raw/hinge_raw.mesh tire/tire.vtk flange/flange.mesh; do [ -f "$SH/$f" ] && meshes+=("$SH/$f"); done
+
+stats() {  # referee verdict and statistics of $2 against $1
+  local v
+  if "$PY" "$REF" compare "$1" "$2" > "$2.ref" 2>&1; then v=valid; else v=REJECTED; fi
+  "$PY" - "$2.ref" "$v" <<'PYEOF'
+import re, sys
+t = open(sys.argv[1]).read().split("after:")[-1]
+w = re.search(r"alpha worst ([0-9.]+) mean ([0-9.]+)", t); b = re.search(r"alpha<0.2: (\d+)", t)
+n = re.search(r"(\d+) tets", t)
+print("%s | %.4f | %.4f | %s | %s" % (n.group(1) if n else "?", float(w.group(1)), float(w.group(2)), b.group(1), sys.argv[2]))
+PYEOF
+}
+run() {  # name, output, command...
+  local name=$1 o=$2; shift 2
+  local t0 t1
+  t0=$(date +%s.%N)
+  "$@" > "$o.log" 2>&1
+  t1=$(date +%s.%N)
+  echo "$(echo "$t1 - $t0" | bc)"
+}
+echo "| mesh | tool | seconds | tets | worst α | mean α | tets α<0.2 | referee |"
+echo "|---|---|---|---|---|---|---|---|"
+for m in "${meshes[@]}"; do
+  b=$(basename "${m%.*}")
+  ext=mesh
+  s0=$(run def "$OUT/${b}_def.$ext" "$T" improve "$m" -o "$OUT/${b}_def.$ext" -q)
+  s1=$(run ins "$OUT/${b}_ins.$ext" "$T" improve "$m" -o "$OUT/${b}_ins.$ext" -q --allow-insert --allow-remove)
+  echo "| $b | input | | $(stats "$m" "$m" | cut -d'|' -f1-4) | |"
+  echo "| $b | tetopt default | $s0 | $(stats "$m" "$OUT/${b}_def.$ext") |"
+  echo "| $b | tetopt --allow-insert --allow-remove | $s1 ($(echo "scale=1; $s1 / $s0" | bc)x default) | $(stats "$m" "$OUT/${b}_ins.$ext") |"
+  if [ -n "${MMG:-}" ] && [ -x "$MMG" ]; then
+    src=$m
+    if [ "${m##*.}" != mesh ]; then src=$OUT/${b}_in.mesh; "$T" convert "$m" "$src" > /dev/null; fi
+    s2=$(run mmg "$OUT/${b}_mmg.mesh" "$MMG" -optim -nosurf -v -1 "$src" -out "$OUT/${b}_mmg.mesh")
+    echo "| $b | MMG -optim -nosurf | $s2 ($(echo "scale=2; $s2 / $s1" | bc)x tetopt insert) | $(stats "$m" "$OUT/${b}_mmg.mesh") |"
+  fi
+done
