@@ -12,7 +12,8 @@
 # the merged inputs of earlier runs; fuzz/dict/TARGET.dict, when present, is
 # passed as -dict= (the format's keywords).
 # New inputs found during a run go to build-fuzz/corpus/TARGET (not committed);
-# crashes go to build-fuzz/artifacts/ and make the script exit 1.  Every
+# crashes go to build-fuzz/artifacts/ and make the script exit 1; each target's
+# whole output is in build-fuzz/logs/TARGET.log.  Every
 # crash must become a regression test (tests/regression/, test_hostile.cpp).
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
@@ -28,8 +29,9 @@ if [ ! -f "$build/CMakeCache.txt" ]; then
 fi
 tlist=""; for t in $targets; do tlist="$tlist ${t}_fuzz"; done
 [ "${FUZZ_NOBUILD:-0}" = 1 ] || cmake --build "$build" -j "${FUZZ_JOBS:-2}" --target $tlist > "$build/fuzz-build.log" 2>&1 || { tail -30 "$build/fuzz-build.log" >&2; exit 2; }
-mkdir -p "$build/artifacts"
+mkdir -p "$build/artifacts" "$build/logs"
 status=0
+failed=""
 for t in $targets; do
   work="$build/corpus/$t"; seeds="$here/corpus/$t"
   mkdir -p "$work" "$seeds"
@@ -37,11 +39,19 @@ for t in $targets; do
   echo "== fuzz $t for ${secs}s"
   "$build/fuzz/${t}_fuzz" -seed="${FUZZ_SEED:-1}" -max_total_time="$secs" -max_len=8192 -timeout=20 -rss_limit_mb=2048 \
       "${dict[@]}" -artifact_prefix="$build/artifacts/${t}-" -print_final_stats=1 "$work" "$seeds" 2>&1 |
-    grep -E "^(#[0-9]+[[:space:]]+DONE|==[0-9]+==ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|Test unit written|runtime error" 
+    tee "$build/logs/$t.log" |
+    grep -E "^(#[0-9]+[[:space:]]+DONE|==[0-9]+== ?ERROR|SUMMARY|tetopt|stat::number_of_executed_units|stat::new_units_added)|ERROR: libFuzzer|Test unit written|runtime error"
   rc=${PIPESTATUS[0]}
-  if [ "$rc" -ne 0 ]; then echo "fuzz $t: FAILED (exit $rc), see $build/artifacts/" >&2; status=1; fi
+  if [ "$rc" -ne 0 ]; then echo "fuzz $t: FAILED (exit $rc), see $build/artifacts/" >&2; status=1; failed="$failed $t"; fi
   if [ "${FUZZ_MERGE:-0}" = 1 ]; then
     "$build/fuzz/${t}_fuzz" -merge=1 -max_len=8192 "$seeds" "$work" > /dev/null 2>&1
   fi
+done
+# A failure is repeated at the end, with the end of its log (the full log is
+# in build-fuzz/logs/TARGET.log), so that the tail of a CI log names it.
+for t in $failed; do
+  echo "== fuzz $t FAILED; the end of $build/logs/$t.log:" >&2
+  grep -v -E "^(#[0-9]+[[:space:]]+(NEW|REDUCE|pulse|RELOAD)|INFO:)" "$build/logs/$t.log" | tail -40 >&2
+  ls -la "$build/artifacts/" | grep -- "$t-" >&2
 done
 exit $status
