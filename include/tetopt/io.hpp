@@ -49,7 +49,8 @@ inline constexpr const char* kFoamFileNames[8] = {"points",   "faces",     "owne
 /// that holds one (a case folder); empty otherwise.
 std::string openfoam_dir(const std::string& path);
 
-/// Format from the extension (.mesh .meshb .msh .vtk .vtu .node .ele; a
+/// Format from the extension (.mesh .meshb .msh .vtk .vtu .node .ele .inp
+/// .cgns .exo .e .ex2; a
 /// trailing .gz is not supported and gives Unknown); OpenFoam for a path
 /// ending in "polyMesh" (or "polyMesh/") and for a folder openfoam_dir
 /// accepts.

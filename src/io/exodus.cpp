@@ -37,6 +37,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -255,6 +256,119 @@ bool is_tet_type(std::string t) {
   return t == "TETRA" || t == "TETRA4" || t == "TET4" || t == "TET";
 }
 
+// The netCDF classic header ("The NetCDF Classic Format Specification",
+// netCDF-C documentation, formats CDF-1, CDF-2 and CDF-5), checked before
+// the library parses it: the library allocates every name, attribute and
+// list at the length the header claims (a fuzzed length of 2^31 made
+// libnetcdf allocate gigabytes), and reads the data of a cut file as fill
+// values.  So every length must fit in the bytes that follow, and every
+// fixed-size variable's data must lie inside the file.  Returns an empty
+// string when the header is sound, else what is wrong.  A netCDF-4 (HDF5)
+// file is refused: Debian's Exodus II library refuses it too ("a netcdf
+// library that does not support netcdf-4", on stderr).
+std::string check_cdf_header(const std::string& path, int64_t file_size) {
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return "cannot open";
+  std::string h(static_cast<size_t>(std::min<int64_t>(file_size, 1 << 20)), '\0');
+  const size_t got = std::fread(h.data(), 1, h.size(), f);
+  std::fclose(f);
+  h.resize(got);
+  if (h.size() >= 4 && h.compare(1, 3, "HDF") == 0)
+    return "a netCDF-4 (HDF5) file; tetopt reads Exodus II files in classic netCDF (CDF1, CDF2, CDF5), which "
+           "Debian's Exodus II library (6.02) is limited to";
+  if (h.size() < 8 || h.compare(0, 3, "CDF") != 0 || (h[3] != 1 && h[3] != 2 && h[3] != 5))
+    return "no netCDF magic number (CDF1, CDF2, CDF5 or HDF5)";
+  const int ver = h[3];
+  size_t pos = 4;
+  bool bad = false;
+  auto u = [&](int bytes) -> uint64_t {
+    if (bad || pos + static_cast<size_t>(bytes) > h.size()) {
+      bad = true;
+      return 0;
+    }
+    uint64_t v = 0;
+    for (int i = 0; i < bytes; ++i) v = (v << 8) | static_cast<unsigned char>(h[pos + i]);
+    pos += static_cast<size_t>(bytes);
+    return v;
+  };
+  const int nw = ver == 5 ? 8 : 4;  // NON_NEG and nelems
+  auto left = [&] { return static_cast<uint64_t>(h.size() - std::min(pos, h.size())); };
+  auto skip = [&](uint64_t n) {
+    n = (n + 3) / 4 * 4;
+    if (n > left()) bad = true;
+    else pos += static_cast<size_t>(n);
+  };
+  auto name = [&] {
+    const uint64_t n = u(nw);
+    if (n > 256) bad = true;  // NC_MAX_NAME
+    else skip(n);
+  };
+  auto type_size = [](uint64_t t) -> uint64_t {
+    switch (t) {
+      case 1: case 2: case 7: return 1;  // byte, char, ubyte
+      case 3: case 8: return 2;          // short, ushort
+      case 4: case 5: case 9: return 4;  // int, float, uint
+      case 6: case 10: case 11: return 8;  // double, int64, uint64
+      default: return 0;
+    }
+  };
+  auto atts = [&] {
+    const uint64_t tag = u(4);
+    const uint64_t n = u(nw);
+    if (tag == 0 && n == 0) return;
+    if (tag != 0x0C || n > left() / 8) { bad = true; return; }
+    for (uint64_t i = 0; i < n && !bad; ++i) {
+      name();
+      const uint64_t ts = type_size(u(4));
+      const uint64_t cnt = u(nw);
+      if (ts == 0 || cnt > left() / ts) bad = true;
+      else skip(cnt * ts);
+    }
+  };
+  const uint64_t numrecs = u(nw);
+  std::vector<uint64_t> dims;
+  {
+    const uint64_t tag = u(4), n = u(nw);
+    if (!(tag == 0 && n == 0)) {
+      if (tag != 0x0A || n > left() / 8) return "the header's dimension list is cut or lies";
+      for (uint64_t i = 0; i < n && !bad; ++i) {
+        name();
+        dims.push_back(u(nw));
+      }
+    }
+  }
+  atts();
+  if (bad) return "the header's global attributes are cut or lie";
+  const uint64_t tag = u(4), nvars = u(nw);
+  if (bad || (!(tag == 0 && nvars == 0) && (tag != 0x0B || nvars > left() / 8))) return "the header's variable list is cut or lies";
+  for (uint64_t i = 0; i < nvars && !bad; ++i) {
+    name();
+    const uint64_t nd = u(nw);
+    if (nd > 1024 || nd > left() / 4) return "a variable of the header has too many dimensions";
+    unsigned __int128 count = 1;
+    bool record = false;
+    for (uint64_t k = 0; k < nd && !bad; ++k) {
+      const uint64_t d = u(nw);
+      if (d >= dims.size()) return "a variable of the header names a dimension it does not have";
+      if (dims[d] == 0) record = true;
+      else count *= dims[d];
+      if (count > (static_cast<unsigned __int128>(1) << 62)) return "a variable of the header is too large";
+    }
+    atts();
+    const uint64_t ts = type_size(u(4));
+    u(nw);  // vsize (redundant, and wrong for large variables by the specification)
+    const uint64_t begin = u(ver == 1 ? 4 : 8);
+    if (bad) break;
+    if (ts == 0) return "a variable of the header has an unknown type";
+    const unsigned __int128 end = begin + (record ? 0 : count * ts);
+    if (record && numrecs != 0xFFFFFFFFu && numrecs > 0 && begin > static_cast<uint64_t>(file_size))
+      return "a variable's data starts past the end of the file (cut short?)";
+    if (!record && end > static_cast<uint64_t>(file_size)) return "a variable's data lies past the end of the file (cut short?)";
+  }
+  if (bad) return "the header is cut or lies";
+  return {};
+}
+
 class XReader {
  public:
   XReader(const std::string& path, const std::string& name) : path_(path), name_(name) {}
@@ -299,6 +413,8 @@ Status XReader::run(TetMesh& m) {
   if (::stat(path_.c_str(), &st) != 0) return fail("no such file", ErrorCode::Io);
   if (!S_ISREG(st.st_mode)) return fail("not a regular file", ErrorCode::Io);
   const int64_t limit = claim_limit(static_cast<int64_t>(st.st_size));
+  if (const std::string why = check_cdf_header(path_, static_cast<int64_t>(st.st_size)); !why.empty())
+    return fail("not an Exodus II file: " + why);
   int cpu_ws = 8, io_ws = 0;
   float version = 0;
   ExoCloser c;
@@ -315,6 +431,13 @@ Status XReader::run(TetMesh& m) {
   if (ne < 1 || nblk < 1) return fail("no elements");
   if (nv > limit || ne > limit || nblk > limit || nns > limit || nss > limit || nblk < 0 || nns < 0 || nss < 0)
     return fail("the initialization parameters claim more nodes, elements, blocks or sets than the file can hold");
+  // netCDF reads past the end of a cut file as fill values (zeros), so a
+  // file too short for its coordinates and connectivity alone is cut.
+  // (A cut in the last variables, names or properties, is caught only where
+  // its zeros are invalid: node 0, side 0.)
+  if (static_cast<int64_t>(st.st_size) < 3 * static_cast<int64_t>(nv) * std::max(io_ws, 4) + 16 * static_cast<int64_t>(ne))
+    return fail("the file is shorter than its " + std::to_string(nv) + " nodes and " + std::to_string(ne) +
+                " elements need (cut short?)");
   // Coordinates.
   {
     std::vector<double> x(static_cast<size_t>(nv)), y(x.size()), z(x.size());

@@ -348,6 +348,25 @@ TEST_F(CgnsExodus, ExodusHostileFiles) {
     EXPECT_FALSE(s) << frac;
     EXPECT_NE(s.message.find("cut.exo"), std::string::npos) << s.message;
   }
+  // A header whose first dimension name claims 2^31-1 bytes: refused before
+  // the library allocates them (check_cdf_header).
+  {
+    std::string lie = bytes;
+    ASSERT_EQ(lie.compare(0, 3, "CDF"), 0);
+    const size_t at = lie[3] == 5 ? 24 : 16;  // magic, numrecs, NC_DIMENSION, nelems; then the name's length
+    lie.replace(at, 4, std::string("\x7f\xff\xff\xff", 4));
+    s = read_mesh(put("lie.exo", lie), m);
+    ASSERT_FALSE(s);
+    EXPECT_NE(s.message.find("lie.exo: not an Exodus II file: the header"), std::string::npos) << s.message;
+  }
+  // The fuzzer's findings (libnetcdf allocated gigabytes on them): clean errors.
+  for (const auto& e : fs::directory_iterator(fs::path(TETOPT_SOURCE_DIR) / "tests" / "regression" / "exodus")) {
+    std::string found;
+    ASSERT_TRUE(read_file_bytes(e.path().string(), found));
+    s = read_mesh(put("found.exo", found), m);
+    EXPECT_FALSE(s) << e.path();
+    EXPECT_NE(s.message.find("found.exo"), std::string::npos) << s.message;
+  }
   s = read_mesh(put("text.exo", "MeshVersionFormatted 2\n"), m);
   ASSERT_FALSE(s);
   EXPECT_NE(s.message.find("text.exo: not an Exodus II file"), std::string::npos) << s.message;
