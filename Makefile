@@ -12,7 +12,7 @@ DEB_PKGS := build-essential cmake libcgal-dev libgmp-dev libmpfr-dev libboost-de
             libgtest-dev libbenchmark-dev zlib1g-dev gmsh tetgen openfoam calculix-ccx \
             python3 python3-numpy python3-scipy python3-meshio python3-pytest python3-gmsh \
             python3-dev pybind11-dev libtbb-dev clang libclang-rt-14-dev chromium libopenmpi-dev openmpi-bin libmetis-dev \
-            nodejs python3-pip python3-venv pkgconf man-db
+            nodejs python3-pip python3-venv pkgconf man-db libcgns-dev cgns-convert libexodusii-dev
 
 .PHONY: all deps build demo test bench clean python fuzz test-sanitize
 

@@ -4,12 +4,12 @@
 # refusal (reader, check_arrays, inverted tets, build_topology) aborts with
 # its reason instead of returning quietly.  Uses the targets in build-fuzz
 # (fuzz/run.sh builds them).  Exits 1 when a seed is refused.
-#   usage: fuzz/check_seeds.sh [TARGET...]     TARGET: medit meditb gmsh vtk vtu tetgen openfoam fluent abaqus
+#   usage: fuzz/check_seeds.sh [TARGET...]     TARGET: medit meditb gmsh vtk vtu tetgen openfoam fluent abaqus cgns exodus
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=${FUZZ_BUILD:-$root/build-fuzz}
-targets=${*:-medit meditb gmsh vtk vtu tetgen openfoam fluent abaqus}
+targets=${*:-medit meditb gmsh vtk vtu tetgen openfoam fluent abaqus cgns exodus}
 status=0
 for t in $targets; do
   exe="$build/fuzz/${t}_fuzz"

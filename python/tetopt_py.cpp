@@ -597,10 +597,30 @@ std::string run_improve(TetMesh& m, tetopt::ImproveOptions& opt, const py::objec
   return js;
 }
 
-/// The CLI's improve report keeps the 1000 worst tets of the diagnosis.
+/// The CLI's improve report keeps the 1000 worst tets of the diagnosis, and
+/// says before it what --allow-insert could buy ("insertion_hint", issue 27):
+/// {"insertion_hint": ..., "diagnosis": ...}, which _with_diagnosis unpacks.
 py::object improve_diagnosis(const TetMesh& m, const tetopt::ImproveOptions& opt, const PyImproveOptions& popt) {
   if (!popt.diagnose) return py::none();
+#if TETOPT_PY_HAVE_DIAGNOSE
+  std::string dj, hj;
+  {
+    py::gil_scoped_release nogil;
+    tetopt::DiagnoseOptions dopt;
+    dopt.threshold = opt.threshold;
+    dopt.mesh_bound = true;
+    dopt.all_measures = opt.objective != tetopt::Objective::Alpha;
+    const tetopt::Diagnosis d = tetopt::diagnose(m, dopt);
+    double worst = INFINITY;
+    for (int32_t t = 0; t < m.nt(); ++t) worst = std::min(worst, tetopt::tet_alpha(m, t));
+    hj = tetopt::insertion_hint_to_json(
+        tetopt::insertion_hint(d, worst, opt.mode == tetopt::ImproveMode::Best && !opt.allow_insert));
+    dj = tetopt::diagnosis_to_json(d, 1000, 2);
+  }
+  return py::str("{\"insertion_hint\": " + hj + ", \"diagnosis\": " + dj + "}");
+#else
   return py::str(diagnosis_json(m, opt.threshold, 1000, nullptr, opt.objective != tetopt::Objective::Alpha));
+#endif
 }
 
 py::tuple improve_arrays(py::handle points, py::handle tets, py::handle refs, py::handle constrained_faces,

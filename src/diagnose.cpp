@@ -774,6 +774,42 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
   return o.str();
 }
 
+InsertionHint insertion_hint(const Diagnosis& d, double worst_alpha, bool insertion_available) {
+  InsertionHint h;
+  h.worst_alpha = worst_alpha;
+  h.estimate = d.bound.alpha;
+  for (const PoorTet& p : d.poor) {
+    const bool headroom = p.cls != TetClass::LockedByTriangle ||
+                          (!std::isnan(p.best_alpha) && p.alpha < kInsertionHintGap * p.best_alpha);
+    h.tets += headroom;
+    h.locked_by_neighbours += p.cls == TetClass::LockedByNeighbours;
+  }
+  h.show = insertion_available && d.bound.triangles > 0 && std::isfinite(d.bound.alpha) &&
+           std::isfinite(worst_alpha) && worst_alpha < kInsertionHintGap * d.bound.alpha;
+  return h;
+}
+
+std::string format_insertion_hint(const InsertionHint& h) {
+  if (!h.show) return "";
+  std::ostringstream o;
+  o << "  insertion could lift the worst α from " << fixed(h.worst_alpha, "%.4f") << " toward "
+    << fixed(h.estimate, "%.4f") << " (the bound";
+  if (h.tets > 0) {
+    o << "; " << h.tets << " tets below the threshold could gain from a new vertex";
+    if (h.locked_by_neighbours > 0) o << ", " << h.locked_by_neighbours << " of them with no flip left";
+  }
+  o << "): try " << h.flag << "\n";
+  return o.str();
+}
+
+std::string insertion_hint_to_json(const InsertionHint& h) {
+  if (!h.show) return "null";
+  std::ostringstream o;
+  o << "{\"worst_alpha\": " << num(h.worst_alpha) << ", \"estimate\": " << num(h.estimate) << ", \"tets\": " << h.tets
+    << ", \"locked_by_neighbours\": " << h.locked_by_neighbours << ", \"flag\": \"" << h.flag << "\"}";
+  return o.str();
+}
+
 std::vector<CellField> diagnosis_cell_fields(const Diagnosis& d, int32_t nt) {
   std::vector<CellField> f;
   std::vector<double> cls(static_cast<size_t>(nt), 0.0), bound(static_cast<size_t>(nt), NAN);

@@ -481,6 +481,18 @@ void diagnosis_section(std::ostringstream& o, const HtmlReportInput& in, const V
       << ", largest dihedral ≥ " << f("%.2f°", b.dihedral_max) << ". The α bound comes from a face of tet "
       << b.alpha_tet + 1 << " at (" << f("%.6g", b.alpha_location[0]) << ", " << f("%.6g", b.alpha_location[1])
       << ", " << f("%.6g", b.alpha_location[2]) << ").</p>\n";
+  if (const InsertionHint* h = in.insertion_hint; h && h->show) {
+    o << "<p id=\"insertion-hint\">Inserting vertices could lift the worst α from <b>" << f("%.4f", h->worst_alpha)
+      << "</b> toward <b>" << f("%.4f", h->estimate)
+      << "</b>, the bound above: this run kept the vertex set, and flips and smoothing stop short of it";
+    if (h->tets > 0)
+      o << " (" << h->tets << " tets below α " << f("%.3g", d->threshold) << " could gain from a new vertex"
+        << (h->locked_by_neighbours > 0 ? ", " + std::to_string(h->locked_by_neighbours) + " of them with four "
+                                           "constrained vertices and no flip left"
+                                         : std::string())
+        << ")";
+    o << ". Try <code>" << esc(h->flag) << "</code> (the bound is a ceiling, not a promise).</p>\n";
+  }
   if (in.mesh) view_section(o, in, surf, after);
   if (d->poor.empty()) return;
   const size_t nl = std::min(in.max_tets_listed, d->poor.size());

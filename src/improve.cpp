@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "tetopt/insert.hpp"
 #include "tetopt/invariants.hpp"
@@ -23,6 +25,17 @@ namespace tetopt {
 namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// What mode best's trials report: the counters of the kept trial (what
+// made the output) with the time spent by all of them.
+ImproveReport with_times_of(ImproveReport counters, const ImproveReport& times) {
+  counters.seconds_smooth = times.seconds_smooth;
+  counters.seconds_topo = times.seconds_topo;
+  counters.seconds_check = times.seconds_check;
+  counters.seconds_polish = times.seconds_polish;
+  counters.guard_takes = times.guard_takes;
+  return counters;
+}
 
 // Runs the phases of one mode and accumulates counters and times in rep.
 class Driver {
@@ -52,9 +65,9 @@ class Driver {
       p.round = round_;
       const double planned = o_.mode == ImproveMode::Smooth || o_.mode == ImproveMode::Topo
                                  ? 1.0
-                                 : static_cast<double>(std::max(1, o_.iterations));
+                                 : static_cast<double>(std::max(1, o_.iterations)) * trials_;
       // Outside the rounds (dihedral pass, polish): the rounds run so far.
-      const double f = round_ > 0 ? (round_ - 1 + phases_done) / planned : r_.rounds / planned;
+      const double f = round_ > 0 ? (round_base_ + round_ - 1 + phases_done) / planned : (round_base_ + r_.rounds) / planned;
       last_fraction_ = std::max(last_fraction_, std::clamp(f, 0.0, 1.0));
       if (std::string(phase) == "done") last_fraction_ = 1.0;
       p.fraction = last_fraction_;
@@ -170,7 +183,7 @@ class Driver {
         return s;
       }
       case ImproveMode::Combined: return combined();
-      case ImproveMode::Best: return best();
+      case ImproveMode::Best: return best(best_trial_gammas(o_).front());
     }
     return Status::success();
   }
@@ -250,7 +263,59 @@ class Driver {
   // 19 -> 7.  Every other shared mesh and the demo impeller: same bytes.
   static constexpr double kDihedralAngleKeep = 170.0;
 
-  Status best() {
+  // Mode best's trials (issue 27: a higher --threshold never gives a worse
+  // worst alpha).  The rounds' gamma starts at the threshold, and a run that
+  // starts higher ends in a different local optimum, better or worse: on
+  // walls one tet thick (tests/data/gmsh/thin_wall.geo) gamma 0.5 ended at 0.2898
+  // where 0.3 reached 0.3059 (the 0.3 run's last gain was a pair of flips at
+  // gamma 0.6 in its sixth round, on a mesh its rounds at 0.3-0.5 had
+  // shaped; the 0.5 run stalled twice at 0.6 first); at its defaults 0.2
+  // ended at 0.0611 and 0.3 at 0.0603.  So a threshold G >= 0.4 runs
+  // the rounds (with the dihedral pass and the mean polish) once from each
+  // of kBaseGamma, kBaseGamma + kGammaStep, ... up to G, each from the
+  // input, and keeps the result with the best worst q (then mean alpha;
+  // the first on a tie): the trials of a lower threshold are a prefix of a
+  // higher one's, so the worst cannot fall as G rises.  The default
+  // threshold runs one trial, as before; a threshold below kBaseGamma runs
+  // the default's (G still sets which tets the diagnosis reports), one
+  // between two steps the trials below it (0.45 as 0.4).  Each trial costs
+  // about a default run (improve() keeps a copy of the input and of the
+  // best result meanwhile).  Chained trials instead (each from the previous
+  // result) kept the prefix property but found nothing past the first
+  // trial's local optimum on these walls (t 0.01: 0.1257 at every threshold,
+  // where the trial from 0.4 alone reaches 0.1342).  tetopt-mpi's parts run
+  // one trial from their round's threshold (ImproveOptions::threshold_trials).
+  static constexpr double kBaseGamma = 0.3;
+  static constexpr double kGammaStep = 0.1;
+  static std::vector<double> best_trial_gammas(const ImproveOptions& o) {
+    const double threshold = o.threshold;
+    if (!o.threshold_trials) return {threshold};  // tetopt-mpi's parts: the rounds from the round's threshold
+    std::vector<double> g{kBaseGamma};
+    for (int k = 1; kBaseGamma + k * kGammaStep <= threshold + 1e-9; ++k) g.push_back(kBaseGamma + k * kGammaStep);
+    return g;
+  }
+  // Before a further trial: the mesh is the input again (the caller put it
+  // back), so the cache goes, the guards take its extremes again (their
+  // refusal counts go on) and the progress moves past the trial before.
+  void set_trials(int n) { trials_ = std::max(1, n); }
+  void next_trial() {
+    alpha_.clear();
+    if (guard_) {
+      const auto t = Clock::now();
+      Guard::take(m_, threads_, *guard_);
+      ++r_.guard_takes;
+      r_.seconds_check += since(t);
+    }
+    round_base_ += std::max(1, o_.iterations);
+    round_ = 0;
+  }
+  // The worst q of the objective on the mesh as it is now (cache refilled)
+  // and its mean alpha: what the trials are compared by.
+  std::pair<double, double> score() {
+    alpha_.clear();
+    return {worst(), mean_alpha()};
+  }
+  Status best(double gamma0) {
     // A globally bad mesh (a quarter of its tets below alpha 0.1, e.g. a lazy
     // random triangulation) first gets a global relaxation: local passes on
     // the worst tets cannot reorganise thousands of vertices (relax.hpp).
@@ -268,7 +333,7 @@ class Driver {
     }
     if (o_.allow_insert && o_.remesh)
       if (Status s = remesh(); !s) return s;
-    double gamma = o_.threshold;
+    double gamma = gamma0;
     double prev_worst = worst();
     bool insert_live = true;
     double insert_tried_at = gamma;
@@ -504,7 +569,7 @@ class Driver {
     guard_->exempt_only(objective_measure(o_.objective));
     if (other) alpha_.clear();
     const double mean = mean_alpha();
-    r_.seconds_polish = since(t);
+    r_.seconds_polish += since(t);
     round_ = 0;
     checkpoint("polish", 1);
     if (log_)
@@ -613,6 +678,8 @@ class Driver {
   const std::atomic<bool>* stop_;
   bool cancelled_ = false;  // the progress callback returned false
   int round_ = 0;           // 1-based round for ImproveProgress, 0 outside the rounds
+  int round_base_ = 0;      // rounds planned for the trials before this one (mode best)
+  int trials_ = 1;          // mode best's trials (best_trial_gammas), for ImproveProgress::fraction
   double last_worst_ = NAN;
   double last_fraction_ = 0;  // ImproveProgress::fraction never falls
   int threads_;
@@ -675,6 +742,14 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
     rep.seconds_check += since(tg);
   }
   Driver d(m, opt, rep, log, interrupted, opt.guard ? &guard : nullptr);
+  // Mode best with a threshold of 0.4 or more: further trials from this
+  // mesh (Driver::best_trial_gammas), the best result kept.
+  const std::vector<double> trials =
+      opt.mode == ImproveMode::Best ? Driver::best_trial_gammas(opt) : std::vector<double>{};
+  d.set_trials(static_cast<int>(trials.size()));
+  TetMesh input;
+  const ImproveReport rep_input = rep;
+  if (trials.size() > 1) input = m;
   // The topology passes run without rebuilding the vertex stars after each
   // (TopoOptions::rebuild_stars); the caller gets them built, error or not.
   Status run_status = d.checkpoint("start") ? d.run() : Status::success();
@@ -682,6 +757,37 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
     ensure_vertex_tets(m, opt.threads);
     // After the remesher the distribution is the goal: the polish always.
     d.polish_mean(rep.before.alpha_mean, opt.polish || (opt.allow_insert && opt.remesh));
+  }
+  if (trials.size() > 1 && run_status && !d.aborted()) {
+    ensure_vertex_tets(m, opt.threads);
+    std::pair<double, double> kept_score = d.score();
+    TetMesh kept = std::move(m);
+    ImproveReport kept_rep = rep;
+    for (size_t k = 1; k < trials.size() && !d.stopped(); ++k) {
+      m = input;
+      rep = with_times_of(rep_input, rep);
+      d.next_trial();
+      run_status = d.best(trials[k]);
+      if (!run_status || d.aborted()) break;
+      if (opt.guard && !d.stopped()) {
+        ensure_vertex_tets(m, opt.threads);
+        d.polish_mean(rep.before.alpha_mean, opt.polish);
+      }
+      ensure_vertex_tets(m, opt.threads);
+      // A trial stopped early left a valid mesh too: compared like the others.
+      if (const std::pair<double, double> sc = d.score(); sc > kept_score) {
+        kept_score = sc;
+        kept = std::move(m);
+        kept_rep = rep;
+      }
+    }
+    if (run_status && !d.aborted()) {
+      m = std::move(kept);
+      rep = with_times_of(kept_rep, rep);
+      d.score();  // the cache now describes the kept mesh
+      // The guards' extremes as reported: the kept mesh's.
+      if (opt.guard) Guard::take(m, opt.threads, guard);
+    }
   }
   if (run_status && openfoam) {
     ensure_vertex_tets(m, opt.threads);

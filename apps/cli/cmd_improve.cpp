@@ -120,7 +120,10 @@ static const char* kImproveHelp =
     "After the run every tet still below the threshold is diagnosed: locked by its\n"
     "boundary triangle (no apex over that constrained triangle reaches the threshold),\n"
     "locked by its constrained neighbours (all four vertices constrained and no flip\n"
-    "found), or improvable (not reached); --report and --html list them.\n"
+    "found), or improvable (not reached); --report and --html list them.  In mode best\n"
+    "without --allow-insert, when the worst alpha ends below 95% of the bound, a line\n"
+    "says how far insertion could lift it (\"insertion_hint\" in --report, a sentence\n"
+    "in --html).\n"
     "\n"
     "examples:\n"
     "  tetopt improve impeller.mesh -o impeller_opt.mesh\n"
@@ -270,6 +273,10 @@ int cmd_improve(const std::vector<std::string>& args) {
   Diagnosis diag;
   if (diag_beside.valid()) diag = diag_beside.get();
   else if (want_diag) diag = diagnose(m, dopt);
+  // What --allow-insert could buy (diagnose.hpp, InsertionHint): mode best
+  // without it, worst alpha below 95% of the bound.
+  const InsertionHint hint =
+      insertion_hint(diag, rep.after.alpha_worst, opt.mode == ImproveMode::Best && !opt.allow_insert && want_diag);
   if (!field.empty()) {
     std::vector<CellField> fields = quality_cell_fields(m);
     fields.insert(fields.begin() + 1, CellField{"alpha_before", alpha_before.lookup(m), false});
@@ -287,7 +294,8 @@ int cmd_improve(const std::vector<std::string>& args) {
     const size_t close = js.rfind('}');
     js.insert(close > 0 && js[close - 1] == '\n' ? close - 1 : close, ",\n  \"seconds_end_to_end\": " + std::to_string(total) +
                   ",\n  \"tets_reordered\": " + (order.empty() ? "false" : "true") + ",\n  \"dropped_on_write\": " +
-                  json_string_list(dropped) + ",\n  \"measures_before_after\": " + ba + ",\n  \"diagnosis\": " + dj);
+                  json_string_list(dropped) + ",\n  \"measures_before_after\": " + ba + ",\n  \"insertion_hint\": " +
+                  insertion_hint_to_json(hint) + ",\n  \"diagnosis\": " + dj);
     s = write_file_atomic(report_path, js);
     if (!s) { std::fprintf(stderr, "tetopt: %s\n", shown(s.message).c_str()); return kExitOutput; }
   }
@@ -305,6 +313,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     hin.options = &opt;
     hin.seconds_end_to_end = total;
     hin.diagnosis = &diag;
+    hin.insertion_hint = &hint;
     hin.mesh = &m;  // the 3D view, with the input's poor tets beside the output's
     hin.poor_before = &view_before;
     s = write_html_report(html, hin);
@@ -360,6 +369,7 @@ int cmd_improve(const std::vector<std::string>& args) {
     std::printf("  boundary unchanged: %s\n",
                 rep.invariants_checked ? (rep.invariants_ok ? verdict.c_str() : "NO") : "not checked (--no-check)");
     std::printf("%s", format_diagnosis(diag, verbose ? 20 : 3).c_str());
+    std::printf("%s", format_insertion_hint(hint).c_str());
     if (!html.empty()) std::printf("  wrote HTML report to %s\n", shown(html).c_str());
   }
   return kExitOk;

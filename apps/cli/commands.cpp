@@ -290,6 +290,7 @@ static const char* kConvertHelp =
     "Converts a tetrahedral mesh between formats, chosen by extension:\n"
     "  .mesh .meshb  Medit (GMF)        .msh  Gmsh 2.2 / 4.1 (default 4.1)\n"
     "  .vtk .vtu     VTK legacy / XML   .node/.ele[/.face]  TetGen\n"
+    "  .cgns         CGNS               .exo .e .ex2        Exodus II\n"
     "Tets, listed triangles and their refs are kept in every format, and\n"
     "coordinates round-trip bit for bit.  What OUT's format cannot hold is\n"
     "named in a warning and left out: vertex refs in .msh/.vtk/.vtu, required\n"

@@ -32,7 +32,7 @@ const char* kMainHelp =
     "                 write a box test mesh made here (Kuhn-split cubes)\n"
     "\n"
     "formats (by extension): .mesh .meshb (Medit), .msh (Gmsh 2.2/4.1), .vtk .vtu (VTK),\n"
-    "                        .node/.ele[/.face] (TetGen)\n"
+    "                        .node/.ele[/.face] (TetGen), .cgns (CGNS), .exo .e .ex2 (Exodus II)\n"
     "\n"
     "Run 'tetopt <command> --help' for the options of a command.\n"
     "\n"

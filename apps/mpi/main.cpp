@@ -229,6 +229,9 @@ std::string improve_part(const std::string& framed, ImproveOptions opt, TetMesh&
     // within 0.05 of the part's worst alpha, so it stays cheap at the raised
     // thresholds of later rounds.
     opt.threshold = gamma;
+    // The part's rounds start at the round's threshold (no trials from 0.3
+    // up: improve.hpp, ImproveOptions::threshold_trials).
+    opt.threshold_trials = false;
     // Removed vertices must keep their ids until rank 0 merges the parts;
     // rank 0 drops them once, after the final proof.
     opt.keep_vertex_ids = true;

@@ -43,6 +43,12 @@ struct GroupAttachment {
   /// and zone id; empty / 0 = not given.
   std::string fluent_type;
   int32_t fluent_id = 0;
+  /// CGNS: the BCType of a triangle group's BC_t as libcgns names it ("BCWall",
+  /// "BCInflow", "UserDefined", ...;
+  /// SIDS 9.7) and its FamilyName where that differs from the BC's name;
+  /// empty = not given.
+  std::string cgns_bctype;
+  std::string cgns_family;
 };
 
 /// The groups a file described, in the file's order (a writer that keeps an

@@ -179,6 +179,46 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list = 5);
 /// (0 = all) with id (0-based), class, alpha, kind, best_alpha, centroid.
 std::string diagnosis_to_json(const Diagnosis& d, size_t max_list = 0, int indent = 2);
 
+/// What inserting vertices could buy (issue 27): a run that kept the vertex
+/// set (mode best without --allow-insert) and ended with its worst alpha
+/// below 95% of the mesh-wide bound stopped where flips and smoothing end,
+/// short of what the boundary triangles allow; only a change of the vertex
+/// set can go further (insertion in the cavities of the worst tets: tets
+/// with four constrained vertices that no flip improved, or interiors with
+/// too few vertices, as in raw `tetgen -p` output).  The estimate is the
+/// bound itself: a ceiling that any mesh keeping the boundary triangles
+/// obeys, which --allow-insert often approaches (within 10% on the meshes
+/// of issue 27) but does not promise (walls one tet thick stay far below).
+struct InsertionHint {
+  bool show = false;          ///< the worst alpha is below kInsertionHintGap x the bound, insertion unused
+  double worst_alpha = NAN;   ///< the run's worst alpha
+  double estimate = NAN;      ///< the bound (MeshBound::alpha): how far insertion could lift it at most
+  /// Tets below the diagnosis threshold that a new vertex could lift:
+  /// locked by constrained neighbours, improvable (not reached), and locked
+  /// by a triangle whose best apex is still above kInsertionHintGap^-1 x
+  /// their alpha.
+  int64_t tets = 0;
+  int64_t locked_by_neighbours = 0;  ///< of them: all four vertices constrained, no flip found
+  const char* flag = "--allow-insert";
+};
+/// No hint when the worst alpha is within 5% of the bound.
+inline constexpr double kInsertionHintGap = 0.95;
+
+/// The hint for a run whose mesh d diagnoses (with its bound) and whose
+/// worst alpha is worst_alpha; insertion_available: the run could have
+/// inserted but did not (mode best without allow_insert).  show is false
+/// when insertion was used or unavailable, the bound is unknown, or the
+/// worst alpha is within 5% of it.
+InsertionHint insertion_hint(const Diagnosis& d, double worst_alpha, bool insertion_available);
+
+/// One summary line ("  insertion could lift ...: try --allow-insert\n"),
+/// empty when !h.show.
+std::string format_insertion_hint(const InsertionHint& h);
+
+/// JSON object {"worst_alpha", "estimate", "tets", "locked_by_neighbours",
+/// "flag"}, or null when !h.show.
+std::string insertion_hint_to_json(const InsertionHint& h);
+
 /// Cell fields "diagnosis" (TetClass as an integer) and "alpha_bound" (the
 /// searched best alpha of the tet's constrained faces, NaN elsewhere).
 std::vector<CellField> diagnosis_cell_fields(const Diagnosis& d, int32_t nt);

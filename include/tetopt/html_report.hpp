@@ -75,6 +75,9 @@ struct HtmlReportInput {
   const ImproveOptions* options = nullptr;
   double seconds_end_to_end = NAN;  ///< reading + improving + writing (NaN: not shown)
   const Diagnosis* diagnosis = nullptr;
+  /// What --allow-insert could buy (diagnose.hpp); shown in the diagnosis
+  /// section as <p id="insertion-hint"> when show is set; null: none.
+  const InsertionHint* insertion_hint = nullptr;
   size_t max_tets_listed = 50;      ///< rows of the worst-tets table
   /// The 3D view: the mesh the diagnosis describes (after the run, for
   /// improve), with its topology; null: no view.  Needs `diagnosis` too.

@@ -41,8 +41,9 @@ struct ImproveProgress {
   const char* phase = "start";
   int round = 0;          ///< 1-based round of the loop, 0 outside the rounds
   /// A rough share of the run done, 0..1: (rounds done + phases done in this
-  /// round / phases of a round) / iterations.  Mode best usually converges
-  /// before `iterations` rounds, so it jumps to 1 at "done".
+  /// round / phases of a round) / iterations (times the trials of mode best,
+  /// ImproveOptions::threshold; round counts each trial's from 1).  Mode best
+  /// usually converges before `iterations` rounds, so it jumps to 1 at "done".
   double fraction = 0;
   /// The worst q of the objective (alpha by default) as the driver last saw
   /// it (its cache is not refilled for this; NaN before it is first known).
@@ -57,7 +58,16 @@ struct ImproveOptions {
   ImproveMode mode = ImproveMode::Best;
   bool maxmin_optimizer = false;  ///< Smooth/Combined: Freitag's max-min instead of the paper's scheme
   double weight = 0.75;           ///< C of eq. (3.4), 0.5 <= C < 1
-  double threshold = 0.3;         ///< gamma: tets with alpha < gamma are poor
+  /// gamma: tets with alpha < gamma are poor.  Mode best: the rounds' gamma
+  /// starts at 0.3 and rises; a threshold of 0.4 or more adds a trial of the
+  /// rounds from each further 0.1 up to it, each from the input, the best
+  /// result kept, so a higher threshold never ends with a worse worst q
+  /// (improve.cpp, Driver::best_trial_gammas; issue 27); one below 0.3 runs
+  /// the default's rounds.  Each trial costs about a default run.
+  double threshold = 0.3;
+  /// Mode best: false runs one trial, its rounds from `threshold` itself
+  /// (tetopt-mpi's parts, whose round thresholds are its own schedule).
+  bool threshold_trials = true;
   int iterations = 10;            ///< rounds (sweeps of the loop)
   uint64_t seed = 0;              ///< visiting order
   int threads = 1;                ///< worker threads (results are identical for any count)

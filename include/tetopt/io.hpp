@@ -8,6 +8,10 @@
 //   .vtk / .vtu       VTK legacy (ASCII and binary) and XML UnstructuredGrid
 //   .node / .ele      TetGen (.face and region attributes read when present)
 //   .inp              Abaqus / CalculiX input: nodes, C3D4, sets, surfaces
+//   .cgns             CGNS (HDF5 or ADF): one unstructured zone, TETRA_4 and
+//                     TRI_3 sections, BCs and families (through libcgns)
+//   .exo .e .ex2      Exodus II: element blocks, side sets, node sets
+//                     (through the Exodus II library)
 //   .../polyMesh      OpenFOAM polyMesh folder (a path ending in "polyMesh",
 //                     or any folder holding an `owner` file or a case's
 //                     constant/polyMesh), ASCII and binary
@@ -33,7 +37,7 @@
 
 namespace tetopt {
 
-enum class Format { Unknown, Medit, MeditBinary, Gmsh, Vtk, Vtu, TetGen, OpenFoam, Fluent, Abaqus };
+enum class Format { Unknown, Medit, MeditBinary, Gmsh, Vtk, Vtu, TetGen, OpenFoam, Fluent, Abaqus, Cgns, Exodus };
 
 /// The files of an OpenFOAM polyMesh folder, in the order parse_openfoam
 /// and format_openfoam take them (the last three are optional on read).
@@ -45,7 +49,8 @@ inline constexpr const char* kFoamFileNames[8] = {"points",   "faces",     "owne
 /// that holds one (a case folder); empty otherwise.
 std::string openfoam_dir(const std::string& path);
 
-/// Format from the extension (.mesh .meshb .msh .vtk .vtu .node .ele; a
+/// Format from the extension (.mesh .meshb .msh .vtk .vtu .node .ele .inp
+/// .cgns .exo .e .ex2; a
 /// trailing .gz is not supported and gives Unknown); OpenFoam for a path
 /// ending in "polyMesh" (or "polyMesh/") and for a folder openfoam_dir
 /// accepts.
@@ -87,6 +92,20 @@ Status parse_openfoam(const std::string_view* files, const std::string& dir, Tet
 Status parse_fluent(std::string_view data, const std::string& name, TetMesh& m);
 /// An Abaqus / CalculiX .inp: *NODE, *ELEMENT TYPE=C3D4, *ELSET, *NSET, *SURFACE.
 Status parse_abaqus(std::string_view data, const std::string& name, TetMesh& m);
+
+/// CGNS and Exodus II are read and written through their libraries, which
+/// take a file name, not bytes (so these take a path; `name` is the file
+/// name messages give).  Built only where CMake found libcgns-dev /
+/// libexodusii-dev (options TETOPT_CGNS, TETOPT_EXODUS); elsewhere they
+/// return an Unsupported error saying so, and cgns_available() /
+/// exodus_available() are false.  What they keep: docs/formats.md.
+bool cgns_available();
+bool exodus_available();
+Status parse_cgns_file(const std::string& path, const std::string& name, TetMesh& m);
+Status parse_exodus_file(const std::string& path, const std::string& name, TetMesh& m);
+/// Write the file at path itself (not through a temporary: write_mesh does that).
+Status format_cgns_file(const TetMesh& m, const std::string& path);
+Status format_exodus_file(const TetMesh& m, const std::string& path);
 
 /// Serialises m in the given format into `out` (bytes).  For TetGen, out is
 /// the .node text and out_ele / out_face receive the other files.

@@ -35,8 +35,9 @@ def test_improve_arrays_matches_cli_bytes(cli, box, tmp_path, cli_args, kwargs):
     tetopt.write(py_out, dataclasses.replace(mesh, points=p, tets=t, refs=r))
     assert py_out.read_bytes() == cli_out.read_bytes()
     cli_rep = json.loads((tmp_path / "r.json").read_text())
-    # The CLI may add its diagnosis (improve(..., diagnose=True) does too).
-    assert set(rep) == set(cli_rep) - {"diagnosis"}
+    # The CLI may add its diagnosis and insertion hint (improve(...,
+    # diagnose=True) does too).
+    assert set(rep) == set(cli_rep) - {"diagnosis", "insertion_hint"}
     assert comparable(rep) == comparable(cli_rep)
     assert rep["boundary_unchanged"]["ok"] is True
 
@@ -203,6 +204,7 @@ def test_diagnosis_matches_cli(cli, tmp_path):
                              threshold=0.5, diagnose=True)
     assert list(rep) == list(cli_rep)
     assert without_seconds(rep["diagnosis"]) == without_seconds(cli_rep["diagnosis"])
+    assert rep["insertion_hint"] == cli_rep["insertion_hint"]
 
 
 def test_allow_insert_and_remove_match_cli_and_renumber(cli, tmp_path):

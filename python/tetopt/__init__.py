@@ -205,7 +205,11 @@ def _is_meshio(m: Any) -> bool:
 def _with_diagnosis(js: str, dj: Optional[str]) -> Dict[str, Any]:
     report: Dict[str, Any] = json.loads(js)
     if dj is not None:
-        report["diagnosis"] = json.loads(dj)
+        d = json.loads(dj)
+        if "insertion_hint" in d and "diagnosis" in d:  # improve's: the hint, then the diagnosis (as the CLI's)
+            report["insertion_hint"] = d["insertion_hint"]
+            d = d["diagnosis"]
+        report["diagnosis"] = d
     ops = report.get("operations", {})
     if ops.get("untangled", 0) or ops.get("still_inverted", 0):
         # What `tetopt improve` prints as its "untangling:" line.

@@ -154,6 +154,12 @@ std::vector<std::string> openfoam_dropped(const TetMesh& m);
 std::vector<std::string> fluent_dropped(const TetMesh& m);
 /// The same for the Abaqus writer (abaqus.cpp).
 std::vector<std::string> abaqus_dropped(const TetMesh& m);
+/// The same for the CGNS and Exodus II writers (cgns.cpp, exodus.cpp).
+std::vector<std::string> cgns_dropped(const TetMesh& m);
+std::vector<std::string> exodus_dropped(const TetMesh& m);
+/// format_cgns_file with the file type: 2 HDF5 (what it writes), 1 ADF
+/// (smaller; the fuzz seeds).
+Status write_cgns_typed(const TetMesh& m, const std::string& path, int file_type);
 /// Whether .msh bytes are a Fluent mesh: the first thing after blanks (and
 /// a UTF-8 byte order mark) is '(' (fluent.cpp).
 bool looks_like_fluent(std::string_view data);

@@ -108,6 +108,8 @@ Format format_from_path(const std::string& path) {
   if (ends_with(path, ".vtu")) return Format::Vtu;
   if (ends_with(path, ".node") || ends_with(path, ".ele")) return Format::TetGen;
   if (ends_with(path, ".inp")) return Format::Abaqus;
+  if (ends_with(path, ".cgns")) return Format::Cgns;
+  if (ends_with(path, ".exo") || ends_with(path, ".e") || ends_with(path, ".ex2")) return Format::Exodus;
   return Format::Unknown;
 }
 
@@ -585,7 +587,7 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp, or a folder ending in polyMesh)");
+                           name + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp .cgns .exo, or a folder ending in polyMesh)");
     case Format::OpenFoam: {
       const std::string dir = openfoam_dir(path);
       if (dir.empty() || !is_dir(dir)) return Status::error(ErrorCode::Io, name + ": no such folder");
@@ -607,6 +609,8 @@ Status read_mesh_unguarded(const std::string& path, TetMesh& m, OrientationRepor
       s = parse_openfoam(views, shown(dir), m);
       break;
     }
+    case Format::Cgns: s = parse_cgns_file(path, name, m); break;
+    case Format::Exodus: s = parse_exodus_file(path, name, m); break;
     case Format::TetGen: {
       const std::string base = stem(path);
       std::string ele, face;
@@ -675,13 +679,14 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
   };
   const bool medit = f == Format::Medit || f == Format::MeditBinary, gmsh = f == Format::Gmsh,
              vtk = f == Format::Vtk || f == Format::Vtu, tetgen = f == Format::TetGen,
-             foam = f == Format::OpenFoam, fluent = f == Format::Fluent, abaqus = f == Format::Abaqus;
+             foam = f == Format::OpenFoam, fluent = f == Format::Fluent, abaqus = f == Format::Abaqus,
+             cgns = f == Format::Cgns, exodus = f == Format::Exodus;
   // Formats that name groups themselves (patches, zones): the names of the
   // groups they write are kept; their writer's own list says what is not.
-  const bool names_kept = gmsh || foam || fluent || abaqus;
+  const bool names_kept = gmsh || foam || fluent || abaqus || cgns || exodus;
   if (gmsh || vtk) add(std::count_if(m.vert_ref.begin(), m.vert_ref.end(), [](int32_t r) { return r != 0; }),
                        "vertex refs", " nonzero");
-  if (tetgen || foam || fluent || abaqus) {
+  if (tetgen || foam || fluent || abaqus || cgns || exodus) {
     add(static_cast<int64_t>(m.edges.size() / 2), "listed edges");
     add(static_cast<int64_t>(m.corners.size()), "corners");
   }
@@ -743,6 +748,10 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
     for (std::string& x : detail::fluent_dropped(m)) out.push_back(std::move(x));
   if (abaqus)
     for (std::string& x : detail::abaqus_dropped(m)) out.push_back(std::move(x));
+  if (cgns)
+    for (std::string& x : detail::cgns_dropped(m)) out.push_back(std::move(x));
+  if (exodus)
+    for (std::string& x : detail::exodus_dropped(m)) out.push_back(std::move(x));
   if (!vtk && !m.point_fields.empty()) {
     std::string names;
     for (const TetMesh::PointField& p : m.point_fields) names += (names.empty() ? "" : ", ") + p.name;
@@ -752,6 +761,23 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
 }
 
 namespace {
+// CGNS and Exodus II: their libraries write a file by name.  The file is
+// written beside the target under a temporary name (listed, so that a
+// signal handler removes it), read back and removed; write_file_atomic then
+// puts those bytes in place like every other output.
+Status library_file_bytes(const std::string& path, const TetMesh& m, Format f, std::string& out) {
+  const std::string lib_tmp = temp_name(output_target(path)) + "-lib";
+  const ListedTemp listed(lib_tmp);
+  struct Remove {
+    const std::string& p;
+    ~Remove() { ::unlink(p.c_str()); }
+  } remove{lib_tmp};
+  Status s = f == Format::Cgns ? format_cgns_file(m, lib_tmp) : format_exodus_file(m, lib_tmp);
+  if (!s) return Status::error(s.code, shown(path) + ": " + s.message);
+  if (s = read_file_bytes(lib_tmp, out); !s) return Status::error(s.code, shown(path) + ": " + s.message);
+  return Status::success();
+}
+
 Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const WriteOptions& opt) {
   const Format f = format_from_path(path);
   std::string out;
@@ -759,7 +785,7 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
   switch (f) {
     case Format::Unknown:
       return Status::error(ErrorCode::Unsupported,
-                           shown(path) + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp, or a folder ending in polyMesh)");
+                           shown(path) + ": unknown extension (use .mesh .meshb .msh .vtk .vtu .node/.ele .inp .cgns .exo, or a folder ending in polyMesh)");
     case Format::TetGen: {
       std::string ele, face;
       if (s = format_tetgen(m, out, ele, face); !s) return Status::error(s.code, shown(path) + ": " + s.message);
@@ -784,6 +810,11 @@ Status write_mesh_unguarded(const std::string& path, const TetMesh& m, const Wri
       break;
     case Format::Fluent: s = format_fluent(m, out, opt.binary); break;
     case Format::Abaqus: s = format_abaqus(m, out); break;
+    case Format::Cgns:
+    case Format::Exodus: {
+      if (s = library_file_bytes(path, m, f, out); !s) return s;
+      break;
+    }
     case Format::Vtk: s = format_vtk(m, out, opt.binary); break;
     case Format::Vtu: s = format_vtu(m, out); break;
   }
