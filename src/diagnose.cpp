@@ -439,6 +439,85 @@ ApexResult best_apex(const double* a, const double* b, const double* c, ApexObje
 }
 
 namespace {
+// The dihedral angle (degrees) at edge pq between triangles (p, q, r) and
+// (p, q, s): the angle between r - p and s - p projected across the edge.
+double edge_dihedral_deg(const double* p, const double* q, const double* r, const double* s) {
+  double e[3], a[3], b[3];
+  for (int k = 0; k < 3; ++k) { e[k] = q[k] - p[k]; a[k] = r[k] - p[k]; b[k] = s[k] - p[k]; }
+  const double ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+  if (!(ee > 0)) return 0;
+  const double ka = (a[0] * e[0] + a[1] * e[1] + a[2] * e[2]) / ee, kb = (b[0] * e[0] + b[1] * e[1] + b[2] * e[2]) / ee;
+  for (int k = 0; k < 3; ++k) { a[k] -= ka * e[k]; b[k] -= kb * e[k]; }
+  const double la = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]), lb = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+  if (!(la > 0 && lb > 0)) return 0;
+  const double c = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (la * lb);
+  return std::acos(std::clamp(c, -1.0, 1.0)) * 57.29577951308232;
+}
+}  // namespace
+
+double wedge_best_alpha(const double* p, const double* q, const double* r, const double* s) {
+  const Frame f(p, q, r);
+  if (f.degenerate) return 0;
+  auto loc = [&](const double* w) {
+    Vec3 d{w[0] - f.origin[0], w[1] - f.origin[1], w[2] - f.origin[2]};
+    return Vec3{(d[0] * f.e1[0] + d[1] * f.e1[1] + d[2] * f.e1[2]) / f.scale,
+                (d[0] * f.e2[0] + d[1] * f.e2[1] + d[2] * f.e2[2]) / f.scale,
+                (d[0] * f.n[0] + d[1] * f.n[1] + d[2] * f.n[2]) / f.scale};
+  };
+  // alpha is symmetric under the reflection through (p, q, r)'s plane, which
+  // ApexMeasure folds onto z > 0: mirror s there too.
+  const Vec3 lp = loc(p), lq = loc(q), lr = loc(r);
+  Vec3 ls = loc(s);
+  if (ls[2] < 0) ls[2] = -ls[2];
+  // The plane of (p, q, s): the apex must stay on r's side of it.
+  const Vec3 u{lq[0] - lp[0], lq[1] - lp[1], lq[2] - lp[2]}, v{ls[0] - lp[0], ls[1] - lp[1], ls[2] - lp[2]};
+  const Vec3 n2{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  auto side = [&](const Vec3& x) { return (x[0] - lp[0]) * n2[0] + (x[1] - lp[1]) * n2[1] + (x[2] - lp[2]) * n2[2]; };
+  const double sr = side(lr);
+  if (!(sr != 0)) return 0;
+  const ApexMeasure g0{f, ApexObjective::Alpha};
+  const double tol = 1e-12;
+  auto g = [&](const Vec3& x) {
+    if (!(x[2] >= 0) || side(x) * sr < -tol) return -std::numeric_limits<double>::infinity();
+    return g0(x);
+  };
+  std::vector<std::pair<double, Vec3>> starts;
+  starts.push_back({g(ls), ls});
+  for (const Vec3& c : candidates(f)) starts.push_back({g(c), c});
+  const double x0 = std::min(0.0, f.cx) - 0.3, x1 = std::max(f.bx, f.cx) + 0.3;
+  const double y0 = -0.5, y1 = f.cy + 0.6;
+  constexpr int kN = 11;
+  for (int i = 0; i < kN; ++i)
+    for (int j = 0; j < kN; ++j)
+      for (int k = 0; k < kN; ++k) {
+        const Vec3 x{x0 + (x1 - x0) * i / (kN - 1), y0 + (y1 - y0) * j / (kN - 1), 0.01 + 1.19 * k / (kN - 1)};
+        starts.push_back({g(x), x});
+      }
+  // Points of the wedge near the edge (p, q) at every depth: the search box
+  // of a thin wedge holds few grid points.
+  for (int i = 1; i < kN; ++i)
+    for (int j = 1; j < kN; ++j) {
+      const double a = static_cast<double>(i) / kN, b = static_cast<double>(j) / kN;
+      Vec3 x{lp[0] + a * u[0] + b * (lr[0] - lp[0] + ls[0] - lp[0]) / 2, lp[1] + a * u[1] + b * (lr[1] - lp[1] + ls[1] - lp[1]) / 2,
+             lp[2] + a * u[2] + b * (lr[2] - lp[2] + ls[2] - lp[2]) / 2};
+      starts.push_back({g(x), x});
+    }
+  const size_t k = std::min<size_t>(6, starts.size());
+  std::partial_sort(starts.begin(), starts.begin() + static_cast<std::ptrdiff_t>(k), starts.end(),
+                    [](const auto& a, const auto& b) { return a.first > b.first; });
+  double best = starts[0].first;
+  for (size_t i = 0; i < k; ++i) {
+    if (!(starts[i].first > -std::numeric_limits<double>::infinity())) continue;
+    Vec3 x = starts[i].second;
+    double fx = nelder_mead(g, x, 0.05, 600);
+    fx = std::max(fx, nelder_mead(g, x, 0.005, 400));
+    fx = compass(g, x, fx, 1e-3, 1e-10);
+    best = std::max(best, fx);
+  }
+  return std::max(best, 0.0);
+}
+
+namespace {
 
 // Constrained triangles, each once: packed face 4t+f of its first tet.
 std::vector<int32_t> constrained_faces(const TetMesh& m, int threads) {
@@ -669,6 +748,35 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         p.face = f;
       }
     }
+    // Two faces of t on the domain boundary (no tet beyond either): t is the
+    // only tet at their common edge, so near it the domain is t's wedge and
+    // the tet any mesh puts on either face has its apex inside that wedge
+    // (issue 27: a pair of constrained faces provably forces this).
+    if (!m.adj.empty()) {
+      const int32_t* tv = m.tet(t);
+      for (int f1 = 0; f1 < 4; ++f1)
+        for (int f2 = 0; f2 < 4; ++f2) {
+          if (f1 == f2 || !(mask & (1u << f1)) || !(mask & (1u << f2))) continue;
+          if (m.adj[4 * static_cast<size_t>(t) + f1] >= 0 || m.adj[4 * static_cast<size_t>(t) + f2] >= 0) continue;
+          // Face f1 = (p, q, r) where r = vertex f2 is off the shared edge
+          // and s = vertex f1 is face f2's own.
+          int pq[2], n = 0;
+          for (int k = 0; k < 4; ++k)
+            if (k != f1 && k != f2) pq[n++] = k;
+          const double w = wedge_best_alpha(m.point(tv[pq[0]]), m.point(tv[pq[1]]), m.point(tv[f2]), m.point(tv[f1]));
+          if (std::isnan(p.wedge_alpha) || w < p.wedge_alpha) {
+            p.wedge_alpha = w;
+            p.wedge_face = f1;
+            p.wedge_deg = edge_dihedral_deg(m.point(tv[pq[0]]), m.point(tv[pq[1]]), m.point(tv[f2]), m.point(tv[f1]));
+          }
+        }
+      if (!std::isnan(p.wedge_alpha) && (std::isnan(p.best_alpha) || p.wedge_alpha < p.best_alpha)) {
+        p.best_alpha = p.wedge_alpha;
+        p.face = p.wedge_face;
+      } else {
+        p.wedge_alpha = NAN;  // no tighter than the triangle's own bound
+      }
+    }
     if (!std::isnan(p.best_alpha) && p.best_alpha < opt.threshold) p.cls = TetClass::LockedByTriangle;
     else if (p.kind == 4) p.cls = TetClass::LockedByNeighbours;
     else p.cls = TetClass::Improvable;
@@ -680,7 +788,21 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   std::sort(d.poor.begin(), d.poor.end(), [](const PoorTet& x, const PoorTet& y) {
     return x.alpha < y.alpha || (x.alpha == y.alpha && x.tet < y.tet);
   });
-  if (opt.mesh_bound) d.bound = mesh_bound(m, opt.threads, opt.all_measures);
+  if (opt.mesh_bound) {
+    d.bound = mesh_bound(m, opt.threads, opt.all_measures);
+    // A poor tet's wedge bound holds for the whole mesh too.
+    for (const PoorTet& p : d.poor)
+      if (!std::isnan(p.wedge_alpha) && !(p.wedge_alpha >= d.bound.alpha)) {
+        d.bound.alpha = p.wedge_alpha;
+        d.bound.measure[static_cast<size_t>(Measure::Alpha)] = p.wedge_alpha;
+        d.bound.alpha_tet = p.tet;
+        d.bound.alpha_face = p.wedge_face;
+        d.bound.alpha_wedge_deg = p.wedge_deg;
+        const double* fp[3];
+        face_points(m, 4 * p.tet + p.wedge_face, fp);
+        for (int k = 0; k < 3; ++k) d.bound.alpha_location[k] = (fp[0][k] + fp[1][k] + fp[2][k]) / 3;
+      }
+  }
   d.seconds = seconds_since(t0);
   return d;
 }
@@ -728,7 +850,10 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
     o << "    tet " << p.tet + 1 << "  α " << fixed(p.alpha, "%.4f") << "  kind " << p.kind << "  at "
       << fixed(p.centroid[0], "%.6g") << " " << fixed(p.centroid[1], "%.6g") << " " << fixed(p.centroid[2], "%.6g")
       << ": " << tet_class_name(p.cls);
-    if (p.cls == TetClass::LockedByTriangle) o << " (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
+    if (p.cls == TetClass::LockedByTriangle && !std::isnan(p.wedge_alpha))
+      o << " and the boundary face beside it, meeting at " << fixed(p.wedge_deg, "%.1f") << "° (best possible α = "
+        << fixed(p.best_alpha, "%.4f") << ")";
+    else if (p.cls == TetClass::LockedByTriangle) o << " (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
     o << "\n";
   }
   return o.str();
@@ -750,7 +875,7 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
     << ", \"max_dihedral_lower_bound\": " << num(d.bound.dihedral_max) << ", \"alpha_tet\": " << d.bound.alpha_tet
     << ", \"alpha_face\": " << d.bound.alpha_face << ", \"alpha_location\": [" << num(d.bound.alpha_location[0])
     << ", " << num(d.bound.alpha_location[1]) << ", " << num(d.bound.alpha_location[2])
-    << "], \"measures\": {";
+    << "], \"alpha_wedge_deg\": " << num(d.bound.alpha_wedge_deg) << ", \"measures\": {";
   // Every per-tet measure's bound by its key (null: not computed); the face
   // measures have none (diagnose.hpp, MeshBound::measure).
   for (int k = 0; k < kTetMeasureCount; ++k)
@@ -767,7 +892,8 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
                                                   : "\"improvable\"")
       << ", \"alpha\": " << num(p.alpha) << ", \"dihedral_min\": " << num(p.dihedral_min)
       << ", \"dihedral_max\": " << num(p.dihedral_max) << ", \"kind\": " << p.kind
-      << ", \"best_alpha\": " << num(p.best_alpha) << ", \"face\": " << p.face << ", \"centroid\": ["
+      << ", \"best_alpha\": " << num(p.best_alpha) << ", \"face\": " << p.face
+      << ", \"wedge_deg\": " << num(p.wedge_alpha == p.wedge_alpha ? p.wedge_deg : NAN) << ", \"centroid\": ["
       << num(p.centroid[0]) << ", " << num(p.centroid[1]) << ", " << num(p.centroid[2]) << "]}";
   }
   o << (n ? "\n" + pad : "") << "]\n}";

@@ -96,6 +96,12 @@ struct ApexResult {
 /// dihedral 0, max dihedral 180.
 ApexResult best_apex(const double* a, const double* b, const double* c, ApexObjective obj = ApexObjective::Alpha);
 
+/// The highest alpha of a tet on triangle (p, q, r) whose apex lies in the
+/// wedge between that triangle and triangle (p, q, s) (same side of
+/// (p, q, r) as s, same side of (p, q, s) as r): a search like best_apex's,
+/// from the grid, the closed-form candidates, points of the wedge and s.
+double wedge_best_alpha(const double* p, const double* q, const double* r, const double* s);
+
 /// The cheap estimate: the best objective value over a few closed-form apex
 /// candidates (achieved, hence <= best_apex for Alpha and MinDihedral, >= for
 /// MaxDihedral).
@@ -122,6 +128,9 @@ struct MeshBound {
   std::array<double, kTetMeasureCount> measure{NAN, NAN, NAN, NAN, NAN, NAN, NAN, NAN};
   int32_t alpha_tet = -1, alpha_face = -1;  ///< a tet and local face holding the alpha bound
   double alpha_location[3] = {NAN, NAN, NAN};  ///< centroid of that triangle
+  /// diagnose() only: when a poor tet's wedge bound (PoorTet::wedge_alpha)
+  /// is below every triangle's, alpha is that bound and this its angle.
+  double alpha_wedge_deg = NAN;
   int64_t refined = 0;            ///< triangles searched in full (all objectives)
   double seconds = 0;
 };
@@ -147,6 +156,14 @@ struct PoorTet {
   /// none was (no constrained face, or every one has an apex reaching gamma)
   double best_alpha = NAN;
   int32_t face = -1;            ///< local face giving best_alpha, -1 when none
+  /// Two of its faces on the domain boundary: the best alpha of a tet on one
+  /// of them with its apex inside the wedge the two faces make (it is the
+  /// only tet at their common edge, so every mesh keeping them has its tet
+  /// there in that wedge), when that is below the triangle's own bound
+  /// (then best_alpha equals it); NaN otherwise.  wedge_deg: the wedge's
+  /// dihedral angle (degrees).  An estimate like best_apex's.
+  double wedge_alpha = NAN, wedge_deg = NAN;
+  int32_t wedge_face = -1;
   double centroid[3] = {0, 0, 0};
 };
 
