@@ -429,6 +429,8 @@ struct PyImproveOptions {
   std::string objective = "alpha";
   bool guard = true;
   bool polish = false;
+  double size = 0;
+  bool remesh = true;
 };
 
 /// The diagnosis of m as JSON (the CLI's "diagnosis" object, `max_list`
@@ -483,6 +485,8 @@ tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
                           p.objective + "'");
   o.guard = p.guard;
   o.polish = p.polish;
+  o.size = p.size;
+  o.remesh = p.remesh;
   return o;
 }
 
@@ -763,7 +767,9 @@ PYBIND11_MODULE(_tetopt, mod) {
       .def_readwrite("allow_remove", &PyImproveOptions::allow_remove)
       .def_readwrite("objective", &PyImproveOptions::objective)
       .def_readwrite("guard", &PyImproveOptions::guard)
-      .def_readwrite("polish", &PyImproveOptions::polish);
+      .def_readwrite("polish", &PyImproveOptions::polish)
+      .def_readwrite("size", &PyImproveOptions::size)
+      .def_readwrite("remesh", &PyImproveOptions::remesh);
   mod.attr("HAVE_DIAGNOSE") = py::bool_(TETOPT_PY_HAVE_DIAGNOSE != 0);
 
   mod.def("improve_arrays", &improve_arrays, py::arg("points"), py::arg("tets"), py::arg("refs"),

@@ -236,3 +236,28 @@ def test_allow_insert_and_remove_match_cli_and_renumber(cli, tmp_path):
     assert py_out.read_bytes() == cli_out.read_bytes()
     # Every output vertex is used by a tet.
     assert len(np.unique(t)) == len(p)
+
+
+def test_remesher_size_and_no_remesh_match_cli(cli, tmp_path):
+    """size= and remesh= are --size and --no-remesh: the same report (times
+    aside) as the CLI; remesh=False splits nothing, a smaller size splits more."""
+    src = tmp_path / "rs.mesh"
+    run_cli(cli, "generate", src, "--cells", 5, 5, 5, "--jitter", 0.4, "--seed", 5)
+    mesh = tetopt.read(src)
+    reps = {}
+    for name, kw, flags in (("size", {"size": 0.5}, ["--size", "0.5"]), ("off", {"remesh": False}, ["--no-remesh"]),
+                            ("default", {}, [])):
+        run_cli(cli, "improve", src, "-o", tmp_path / f"{name}.mesh", "--report", tmp_path / f"{name}.json", "-q",
+                "--allow-insert", *flags)
+        cli_rep = json.loads((tmp_path / f"{name}.json").read_text())
+        *_, rep = tetopt.improve(mesh.points, mesh.tets, mesh.refs, constrained_faces=mesh.triangles,
+                                 allow_insert=True, **kw)
+        assert comparable(rep) == comparable(cli_rep), name
+        reps[name] = rep
+    assert reps["off"]["operations"]["edge_splits"] == 0
+    assert reps["size"]["operations"]["edge_splits"] > reps["default"]["operations"]["edge_splits"]
+
+
+def test_size_must_be_a_length():
+    with pytest.raises(ValueError, match=r"size: expected a length"):
+        tetopt.improve(np.zeros((4, 3)), np.array([[0, 1, 2, 3]]), allow_insert=True, size=-1.0)

@@ -157,7 +157,7 @@ class Mesh:
 def _options(mode: str, optimizer: str, weight: float, threshold: float, iterations: int, seed: int,
              threads: int, check: bool, diagnose: bool, allow_insert: bool = False,
              allow_remove: bool = False, objective: str = "alpha", guard: bool = True,
-             polish: bool = False) -> Any:
+             polish: bool = False, size: float = 0.0, remesh: bool = True) -> Any:
     o = _tetopt.ImproveOptions()
     for name, value, kind in (("mode", mode, str), ("optimizer", optimizer, str)):
         if not isinstance(value, kind):
@@ -190,6 +190,13 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
     if not isinstance(polish, (bool, np.bool_)):
         raise ValueError(f"polish: expected a bool, got {polish!r}")
     o.polish = bool(polish)
+    if isinstance(size, bool) or not isinstance(size, (int, float, np.integer, np.floating)) or not (size >= 0) \
+            or not np.isfinite(size):
+        raise ValueError(f"size: expected a length >= 0 (0: the size field of the boundary), got {size!r}")
+    o.size = float(size)
+    if not isinstance(remesh, (bool, np.bool_)):
+        raise ValueError(f"remesh: expected a bool, got {remesh!r}")
+    o.remesh = bool(remesh)
     return o
 
 
@@ -240,6 +247,8 @@ def improve(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    size: float = 0.0,
+    remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Any:
     """Improves a tetrahedral mesh; returns ``(points, tets, refs, report)``.
@@ -309,6 +318,12 @@ def improve(
             (``tetopt improve --no-guard``).
         polish: end with the guarded mean polish whatever the mean alpha
             (``tetopt improve --polish``): raises the mean, every worst kept.
+        size: with allow_insert, the remesher's target edge length everywhere
+            (``--size``); 0: the size field of the boundary triangles (or a
+            point field named 'size').
+        remesh: with allow_insert, run the interior remesher first (edge
+            splits and collapses toward the size field); False is
+            ``--no-remesh``: insertion in the worst tets' cavities only.
         progress: ``callable(phase, round, fraction, worst)`` called at every
             phase boundary (``tetopt::ImproveOptions::progress``): phase
             'start', 'relax', 'all-boundary', 'flips', 'pairs', 'insert',
@@ -359,11 +374,11 @@ def improve(
         return improve_meshio(points, mode=mode, weight=weight, threshold=threshold, iterations=iterations,
                               seed=seed, threads=threads, optimizer=optimizer, check=check, diagnose=diagnose,
                               log=log, allow_insert=allow_insert, allow_remove=allow_remove, objective=objective,
-                              guard=guard, polish=polish, progress=progress)
+                              guard=guard, polish=polish, size=size, remesh=remesh, progress=progress)
     if tets is None:
         raise ValueError("tets: required (or pass a meshio.Mesh)")
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove, objective, guard, polish)
+                 allow_insert, allow_remove, objective, guard, polish, size, remesh)
     _check_callable("progress", progress)
     p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log, progress)
     return p, t, r, _with_diagnosis(js, dj)
@@ -387,6 +402,8 @@ def improve_mesh(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    size: float = 0.0,
+    remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole :class:`Mesh` (as :func:`read` returns it); returns ``(mesh, report)``.
@@ -398,7 +415,7 @@ def improve_mesh(
     mesh is not modified.
     """
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove, objective, guard, polish)
+                 allow_insert, allow_remove, objective, guard, polish, size, remesh)
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
     _check_callable("progress", progress)
@@ -664,6 +681,8 @@ def improve_meshio(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    size: float = 0.0,
+    remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Any:
     """Improves the tets of a ``meshio.Mesh``; returns a new ``meshio.Mesh``.
@@ -745,7 +764,7 @@ def improve_meshio(
     out, report = improve_mesh(mesh, mode=mode, weight=weight, threshold=threshold, iterations=iterations,
                                seed=seed, threads=threads, optimizer=optimizer, check=check, diagnose=diagnose,
                                log=log, allow_insert=allow_insert, allow_remove=allow_remove,
-                               objective=objective, guard=guard, polish=polish, progress=progress)
+                               objective=objective, guard=guard, polish=polish, size=size, remesh=remesh, progress=progress)
     new_tets = np.asarray(out.tets)
     if out.flipped_on_read:  # back to the input's own orientation (as improve() does)
         new_tets = new_tets[:, [0, 1, 3, 2]]

@@ -112,6 +112,8 @@ def improve(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    size: float = 0.0,
+    remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.int32], Dict[str, Any]]:
     """Improves a tetrahedral mesh without touching its constrained vertices and faces.
@@ -141,6 +143,8 @@ def improve_mesh(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    size: float = 0.0,
+    remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
     """Improves a whole Mesh as `tetopt improve` does (listed entities constrained, everything kept)."""
@@ -163,6 +167,8 @@ def improve_meshio(
     objective: str = "alpha",
     guard: bool = True,
     polish: bool = False,
+    size: float = 0.0,
+    remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Any:
     """meshio.Mesh in, meshio.Mesh out: cell blocks, cell data and cell sets kept by name; report in info["tetopt_report"]."""
