@@ -298,10 +298,26 @@ std::string check_cdf_header(const std::string& path, int64_t file_size) {
     if (n > left()) bad = true;
     else pos += static_cast<size_t>(n);
   };
+  std::string last_name;
   auto name = [&] {
     const uint64_t n = u(nw);
     if (n > 256) bad = true;  // NC_MAX_NAME
-    else skip(n);
+    else {
+      if (!bad && pos + n <= h.size()) last_name.assign(h, pos, static_cast<size_t>(n));
+      skip(n);
+    }
+  };
+  // Attributes the Exodus II library reads into one value or a fixed
+  // buffer (fuzzing: a 'file_size' of several values overran the stack in
+  // ex_large_model): one value each, and an element type of at most 32
+  // characters.
+  auto att_ok = [&](const std::string& an, uint64_t type, uint64_t cnt) {
+    static const char* const kScalar[] = {"api_version", "version", "floating_point_word_size", "file_size",
+                                          "maximum_name_length", "int64_status", "last_written_time"};
+    for (const char* k : kScalar)
+      if (an == k) return type != 2 && cnt == 1;
+    if (an == "elem_type" || an == "entity_type1" || an == "entity_type2") return type == 2 && cnt <= 32;
+    return true;
   };
   auto type_size = [](uint64_t t) -> uint64_t {
     switch (t) {
@@ -319,9 +335,10 @@ std::string check_cdf_header(const std::string& path, int64_t file_size) {
     if (tag != 0x0C || n > left() / 8) { bad = true; return; }
     for (uint64_t i = 0; i < n && !bad; ++i) {
       name();
-      const uint64_t ts = type_size(u(4));
+      const uint64_t type = u(4);
+      const uint64_t ts = type_size(type);
       const uint64_t cnt = u(nw);
-      if (ts == 0 || cnt > left() / ts) bad = true;
+      if (ts == 0 || cnt > left() / ts || !att_ok(last_name, type, cnt)) bad = true;
       else skip(cnt * ts);
     }
   };
