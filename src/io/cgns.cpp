@@ -56,6 +56,49 @@
 
 #if TETOPT_HAVE_CGNS
 #include <cgnslib.h>
+#include <dlfcn.h>
+
+// libcgns is loaded when a .cgns file is first read or written (dlopen),
+// not linked: linked, it and HDF5 were mapped into every program using
+// tetopt, and the address-space limits of tests/scripts/test_oom.sh and the
+// Python tests no longer left room for their out-of-memory cases.
+#define TETOPT_CGNS_FUNCS(X) X(cg_ElementDataSize) X(cg_base_read) X(cg_base_write) X(cg_boco_gridlocation_read) X(cg_boco_gridlocation_write) X(cg_boco_info) X(cg_boco_read) X(cg_boco_write) X(cg_close) X(cg_coord_info) X(cg_coord_read) X(cg_coord_write) X(cg_dataclass_write) X(cg_descriptor_read) X(cg_descriptor_write) X(cg_elements_read) X(cg_exponents_write) X(cg_fambc_write) X(cg_family_read) X(cg_family_write) X(cg_famname_read) X(cg_famname_write) X(cg_free) X(cg_get_error) X(cg_goto) X(cg_is_cgns) X(cg_nbases) X(cg_nbocos) X(cg_ncoords) X(cg_ndescriptors) X(cg_nfamilies) X(cg_nsections) X(cg_nzones) X(cg_open) X(cg_section_read) X(cg_section_write) X(cg_set_file_type) X(cg_zone_read) X(cg_zone_type) X(cg_zone_write)
+namespace tetopt {
+namespace {
+struct CgnsLib {
+#define TETOPT_X(f) decltype(&::f) f = nullptr;
+  TETOPT_CGNS_FUNCS(TETOPT_X)
+#undef TETOPT_X
+  const char** BCTypeName = nullptr;
+  const char** ElementTypeName = nullptr;
+  std::string why;  // empty when loaded
+};
+const CgnsLib* cgns_lib() {
+  static const CgnsLib lib = [] {
+    CgnsLib L;
+    void* h = nullptr;
+    for (const char* n : {TETOPT_CGNS_SONAME, "libcgns.so.3.4", "libcgns.so"})
+      if (!h && n[0]) h = ::dlopen(n, RTLD_NOW | RTLD_LOCAL);
+    if (!h) {
+      const char* e = ::dlerror();
+      L.why = std::string("cannot load libcgns (Debian: libcgns3.4): ") + (e ? e : "dlopen failed");
+      return L;
+    }
+#define TETOPT_X(f)                                                        \
+  L.f = reinterpret_cast<decltype(L.f)>(::dlsym(h, #f));                   \
+  if (!L.f && L.why.empty()) L.why = "libcgns lacks " #f;
+    TETOPT_CGNS_FUNCS(TETOPT_X)
+#undef TETOPT_X
+    L.BCTypeName = reinterpret_cast<const char**>(::dlsym(h, "BCTypeName"));
+    L.ElementTypeName = reinterpret_cast<const char**>(::dlsym(h, "ElementTypeName"));
+    if ((!L.BCTypeName || !L.ElementTypeName) && L.why.empty()) L.why = "libcgns lacks its type name tables";
+    return L;
+  }();
+  return &lib;
+}
+#define CG cgns_lib()
+}  // namespace
+}  // namespace tetopt
 #endif
 
 namespace tetopt {
@@ -168,7 +211,7 @@ int64_t claim_limit(int64_t bytes) { return bytes * 64 + (1 << 16); }
 struct Closer {
   int fn = -1;
   ~Closer() {
-    if (fn >= 0) cg_close(fn);
+    if (fn >= 0) CG->cg_close(fn);
   }
 };
 
@@ -182,18 +225,18 @@ class CReader {
     return Status::error(c, name_ + ": " + what);
   }
   Status lib(const std::string& what) const {
-    const char* e = cg_get_error();
+    const char* e = CG->cg_get_error();
     return fail(what + (e && *e ? std::string(": ") + detail::shown_token(e, true) : std::string()));
   }
   /// The integer of Descriptor_t "tetopt_ref" under the current goto node, if any.
   bool ref_descriptor(int64_t& ref) const {
     int nd = 0;
-    if (cg_ndescriptors(&nd) != CG_OK) return false;
+    if (CG->cg_ndescriptors(&nd) != CG_OK) return false;
     bool found = false;
     for (int d = 1; d <= nd && d <= 64; ++d) {
       char dname[33] = {0};
       char* text = nullptr;
-      if (cg_descriptor_read(d, dname, &text) != CG_OK) continue;
+      if (CG->cg_descriptor_read(d, dname, &text) != CG_OK) continue;
       if (std::strcmp(dname, "tetopt_ref") == 0 && text) {
         char* end = nullptr;
         errno = 0;
@@ -203,7 +246,7 @@ class CReader {
           found = true;
         }
       }
-      if (text) cg_free(text);
+      if (text) CG->cg_free(text);
     }
     return found;
   }
@@ -218,45 +261,45 @@ Status CReader::run(TetMesh& m) {
   if (!S_ISREG(st.st_mode)) return fail("not a regular file", ErrorCode::Io);
   const int64_t limit = claim_limit(static_cast<int64_t>(st.st_size));
   int ftype = 0;
-  if (cg_is_cgns(path_.c_str(), &ftype) != CG_OK) return fail("not a CGNS file (neither a CGNS HDF5 nor an ADF file)");
+  if (CG->cg_is_cgns(path_.c_str(), &ftype) != CG_OK) return fail("not a CGNS file (neither a CGNS HDF5 nor an ADF file)");
   Closer c;
-  if (cg_open(path_.c_str(), CG_MODE_READ, &c.fn) != CG_OK) {
+  if (CG->cg_open(path_.c_str(), CG_MODE_READ, &c.fn) != CG_OK) {
     c.fn = -1;
     return lib("cannot open as CGNS");
   }
   const int fn = c.fn;
   int nb = 0;
-  if (cg_nbases(fn, &nb) != CG_OK) return lib("reading the bases");
+  if (CG->cg_nbases(fn, &nb) != CG_OK) return lib("reading the bases");
   if (nb < 1) return fail("no CGNS base (CGNSBase_t)");
   if (nb > 1) return fail("more than one CGNS base (" + std::to_string(nb) + "); tetopt reads one", ErrorCode::Unsupported);
   char bname[33] = {0};
   int cell_dim = 0, phys_dim = 0;
-  if (cg_base_read(fn, 1, bname, &cell_dim, &phys_dim) != CG_OK) return lib("reading the base");
+  if (CG->cg_base_read(fn, 1, bname, &cell_dim, &phys_dim) != CG_OK) return lib("reading the base");
   if (cell_dim != 3 || phys_dim != 3)
     return fail("base with cell dimension " + std::to_string(cell_dim) + " and physical dimension " +
                     std::to_string(phys_dim) + " (tetopt reads 3 and 3)",
                 ErrorCode::Unsupported);
   int nz = 0;
-  if (cg_nzones(fn, 1, &nz) != CG_OK) return lib("reading the zones");
+  if (CG->cg_nzones(fn, 1, &nz) != CG_OK) return lib("reading the zones");
   if (nz < 1) return fail("no zone");
   if (nz > 1) return fail("more than one zone (" + std::to_string(nz) + "); tetopt reads one unstructured zone", ErrorCode::Unsupported);
   CGNS_ENUMT(ZoneType_t) zt{};
-  if (cg_zone_type(fn, 1, 1, &zt) != CG_OK) return lib("reading the zone type");
+  if (CG->cg_zone_type(fn, 1, 1, &zt) != CG_OK) return lib("reading the zone type");
   if (zt != CGNS_ENUMV(Unstructured)) return fail("a structured zone (tetopt reads an Unstructured zone of tetrahedra)", ErrorCode::Unsupported);
   char zname[33] = {0};
   CgSize size[9] = {0};
-  if (cg_zone_read(fn, 1, 1, zname, size) != CG_OK) return lib("reading the zone");
+  if (CG->cg_zone_read(fn, 1, 1, zname, size) != CG_OK) return lib("reading the zone");
   const int64_t nv = size[0];
   if (nv < 1) return fail("zone with " + std::to_string(nv) + " vertices");
   if (nv > limit || nv > INT32_MAX) return fail("zone claims " + std::to_string(nv) + " vertices, more than the file can hold");
   // Coordinates.
   int ncoord = 0;
-  if (cg_ncoords(fn, 1, 1, &ncoord) != CG_OK) return lib("reading the coordinates");
+  if (CG->cg_ncoords(fn, 1, 1, &ncoord) != CG_OK) return lib("reading the coordinates");
   bool have[3] = {false, false, false};
   for (int k = 1; k <= ncoord; ++k) {
     CGNS_ENUMT(DataType_t) dt{};
     char cname[33] = {0};
-    if (cg_coord_info(fn, 1, 1, k, &dt, cname) != CG_OK) return lib("reading coordinate " + std::to_string(k));
+    if (CG->cg_coord_info(fn, 1, 1, k, &dt, cname) != CG_OK) return lib("reading coordinate " + std::to_string(k));
     for (int a = 0; a < 3; ++a)
       if (std::strcmp(cname, a == 0 ? "CoordinateX" : a == 1 ? "CoordinateY" : "CoordinateZ") == 0) have[a] = true;
   }
@@ -268,7 +311,7 @@ Status CReader::run(TetMesh& m) {
     const CgSize rmin = 1, rmax = static_cast<CgSize>(nv);
     for (int a = 0; a < 3; ++a) {
       const char* cn = a == 0 ? "CoordinateX" : a == 1 ? "CoordinateY" : "CoordinateZ";
-      if (cg_coord_read(fn, 1, 1, cn, CGNS_ENUMV(RealDouble), &rmin, &rmax, col.data()) != CG_OK)
+      if (CG->cg_coord_read(fn, 1, 1, cn, CGNS_ENUMV(RealDouble), &rmin, &rmax, col.data()) != CG_OK)
         return lib(std::string("reading ") + cn);
       for (int64_t v = 0; v < nv; ++v) {
         if (!std::isfinite(col[v])) return fail(std::string(cn) + " of vertex " + std::to_string(v + 1) + " is not finite");
@@ -278,7 +321,7 @@ Status CReader::run(TetMesh& m) {
   }
   // Sections.
   int ns = 0;
-  if (cg_nsections(fn, 1, 1, &ns) != CG_OK) return lib("reading the element sections");
+  if (CG->cg_nsections(fn, 1, 1, &ns) != CG_OK) return lib("reading the element sections");
   struct Sec {
     std::string name;
     int dim;  // 3 tets, 2 triangles
@@ -294,14 +337,14 @@ Status CReader::run(TetMesh& m) {
     CGNS_ENUMT(ElementType_t) et{};
     CgSize start = 0, end = 0;
     int nbndry = 0, parent = 0;
-    if (cg_section_read(fn, 1, 1, s, sname, &et, &start, &end, &nbndry, &parent) != CG_OK)
+    if (CG->cg_section_read(fn, 1, 1, s, sname, &et, &start, &end, &nbndry, &parent) != CG_OK)
       return lib("reading section " + std::to_string(s));
     const std::string shown = "section '" + detail::shown_token(sname, true) + "'";
     int npe = 0;
     if (et == CGNS_ENUMV(TETRA_4)) npe = 4;
     else if (et == CGNS_ENUMV(TRI_3)) npe = 3;
     else {
-      const char* tn = (et >= 0 && et < NofValidElementTypes) ? ElementTypeName[et] : "unknown";
+      const char* tn = (et >= 0 && et < NofValidElementTypes) ? CG->ElementTypeName[et] : "unknown";
       return fail(shown + ": element type " + std::string(tn) + " (tetopt reads TETRA_4 and TRI_3 sections)", ErrorCode::Unsupported);
     }
     if (start < 1 || end < start) return fail(shown + ": element range " + std::to_string(start) + ".." + std::to_string(end));
@@ -309,12 +352,12 @@ Status CReader::run(TetMesh& m) {
     total += count;
     if (total > limit || total > INT32_MAX) return fail(shown + ": claims " + std::to_string(count) + " elements, more than the file can hold");
     CgSize data_size = 0;
-    if (cg_ElementDataSize(fn, 1, 1, s, &data_size) != CG_OK) return lib(shown + ": reading its size");
+    if (CG->cg_ElementDataSize(fn, 1, 1, s, &data_size) != CG_OK) return lib(shown + ": reading its size");
     if (data_size != count * npe)
       return fail(shown + ": " + std::to_string(data_size) + " connectivity values for " + std::to_string(count) + " elements of " + std::to_string(npe) + " nodes");
     std::vector<CgSize> conn(static_cast<size_t>(data_size));
     std::vector<CgSize> parents(parent ? static_cast<size_t>(4 * count) : 0);
-    if (cg_elements_read(fn, 1, 1, s, conn.data(), parent ? parents.data() : nullptr) != CG_OK) return lib(shown + ": reading its elements");
+    if (CG->cg_elements_read(fn, 1, 1, s, conn.data(), parent ? parents.data() : nullptr) != CG_OK) return lib(shown + ": reading its elements");
     Sec sec{sname, npe == 4 ? 3 : 2, start, end, 0, npe == 4 ? m.nt() : m.ntri()};
     std::vector<int32_t>& dst = npe == 4 ? m.tets : m.tris;
     for (int64_t e = 0; e < count; ++e)
@@ -325,7 +368,7 @@ Status CReader::run(TetMesh& m) {
         dst.push_back(static_cast<int32_t>(v - 1));
       }
     int64_t ref = npe == 4 ? ++ntet_sec : ++ntri_sec;
-    if (cg_goto(fn, 1, "Zone_t", 1, "Elements_t", s, "end") == CG_OK) ref_descriptor(ref);
+    if (CG->cg_goto(fn, 1, "Zone_t", 1, "Elements_t", s, "end") == CG_OK) ref_descriptor(ref);
     sec.ref = static_cast<int32_t>(ref);
     (npe == 4 ? m.tet_ref : m.tri_ref).insert((npe == 4 ? m.tet_ref : m.tri_ref).end(), static_cast<size_t>(count), sec.ref);
     secs.push_back(std::move(sec));
@@ -343,7 +386,7 @@ Status CReader::run(TetMesh& m) {
   std::vector<std::string> tri_name(secs.size());
   for (size_t i = 0; i < secs.size(); ++i) tri_name[i] = secs[i].name;
   int nbc = 0;
-  if (cg_nbocos(fn, 1, 1, &nbc) != CG_OK) nbc = 0;
+  if (CG->cg_nbocos(fn, 1, 1, &nbc) != CG_OK) nbc = 0;
   for (int b = 1; b <= nbc; ++b) {
     char bcname[33] = {0};
     CGNS_ENUMT(BCType_t) bct{};
@@ -351,20 +394,20 @@ Status CReader::run(TetMesh& m) {
     CgSize npnts = 0, nlist = 0;
     int nindex[3] = {0, 0, 0}, nds = 0;
     CGNS_ENUMT(DataType_t) ndt{};
-    if (cg_boco_info(fn, 1, 1, b, bcname, &bct, &pst, &npnts, nindex, &nlist, &ndt, &nds) != CG_OK) return lib("reading BC " + std::to_string(b));
+    if (CG->cg_boco_info(fn, 1, 1, b, bcname, &bct, &pst, &npnts, nindex, &nlist, &ndt, &nds) != CG_OK) return lib("reading BC " + std::to_string(b));
     CGNS_ENUMT(GridLocation_t) loc = CGNS_ENUMV(Vertex);
-    if (cg_boco_gridlocation_read(fn, 1, 1, b, &loc) != CG_OK) continue;
+    if (CG->cg_boco_gridlocation_read(fn, 1, 1, b, &loc) != CG_OK) continue;
     const bool range = pst == CGNS_ENUMV(PointRange) || pst == CGNS_ENUMV(ElementRange);
     if (!range || npnts != 2 || loc == CGNS_ENUMV(Vertex) || nlist != 0) continue;
     CgSize pts[2] = {0, 0};
-    if (cg_boco_read(fn, 1, 1, b, pts, nullptr) != CG_OK) return lib("reading BC '" + detail::shown_token(bcname, true) + "'");
+    if (CG->cg_boco_read(fn, 1, 1, b, pts, nullptr) != CG_OK) return lib("reading BC '" + detail::shown_token(bcname, true) + "'");
     for (size_t i = 0; i < secs.size(); ++i) {
       if (secs[i].dim != 2 || secs[i].start != pts[0] || secs[i].end != pts[1]) continue;
       tri_name[i] = bcname;
       GroupAttachment& g = m.attachment.get(2, secs[i].ref);
-      if (bct >= 0 && bct < NofValidBCTypes) g.cgns_bctype = BCTypeName[bct];
+      if (bct >= 0 && bct < NofValidBCTypes) g.cgns_bctype = CG->BCTypeName[bct];
       char fam[33] = {0};
-      if (cg_goto(fn, 1, "Zone_t", 1, "ZoneBC_t", 1, "BC_t", b, "end") == CG_OK && cg_famname_read(fam) == CG_OK &&
+      if (CG->cg_goto(fn, 1, "Zone_t", 1, "ZoneBC_t", 1, "BC_t", b, "end") == CG_OK && CG->cg_famname_read(fam) == CG_OK &&
           std::strcmp(fam, bcname) != 0)
         g.cgns_family = fam;
     }
@@ -383,7 +426,7 @@ CGNS_ENUMT(BCType_t) bc_type(const TetMesh& m, int32_t ref) {
   const GroupAttachment* g = m.attachment.find(2, ref);
   if (g && !g->cgns_bctype.empty())
     for (int k = 0; k < NofValidBCTypes; ++k)
-      if (g->cgns_bctype == BCTypeName[k]) return static_cast<CGNS_ENUMT(BCType_t)>(k);
+      if (g->cgns_bctype == CG->BCTypeName[k]) return static_cast<CGNS_ENUMT(BCType_t)>(k);
   if (g && (g->foam_type == "wall" || g->fluent_type == "wall")) return CGNS_ENUMV(BCWall);
   if (g && (g->foam_type == "symmetryPlane" || g->foam_type == "symmetry" || g->fluent_type == "symmetry"))
     return CGNS_ENUMV(BCSymmetryPlane);
@@ -392,56 +435,58 @@ CGNS_ENUMT(BCType_t) bc_type(const TetMesh& m, int32_t ref) {
 
 }  // namespace
 
-bool cgns_available() { return true; }
+bool cgns_available() { return CG->why.empty(); }
 
 Status parse_cgns_file(const std::string& path, const std::string& name, TetMesh& m) {
   const std::lock_guard<std::mutex> lock(cgns_mutex());
+  if (!CG->why.empty()) return Status::error(ErrorCode::Unsupported, name + ": " + CG->why);
   CReader r(path, name);
   return r.run(m);
 }
 
 Status detail::write_cgns_typed(const TetMesh& m, const std::string& path, int file_type) {
   const std::lock_guard<std::mutex> lock(cgns_mutex());
+  if (!CG->why.empty()) return Status::error(ErrorCode::Unsupported, CG->why);
   auto lib = [&](const std::string& what) {
-    const char* e = cg_get_error();
+    const char* e = CG->cg_get_error();
     return Status::error(ErrorCode::Io, "CGNS: " + what + (e && *e ? std::string(": ") + e : std::string()));
   };
   if (m.nv() < 1 || m.nt() < 1) return Status::error(ErrorCode::Unsupported, "CGNS: a zone needs vertices and tets");
   CPlan p;
   make_plan(m, p);
-  if (cg_set_file_type(file_type) != CG_OK) return lib("file type");
+  if (CG->cg_set_file_type(file_type) != CG_OK) return lib("file type");
   Closer c;
-  if (cg_open(path.c_str(), CG_MODE_WRITE, &c.fn) != CG_OK) {
+  if (CG->cg_open(path.c_str(), CG_MODE_WRITE, &c.fn) != CG_OK) {
     c.fn = -1;
     return lib("cannot create the file");
   }
   const int fn = c.fn;
   int B = 0, Z = 0, C = 0, S = 0, BC = 0, F = 0, FB = 0;
-  if (cg_base_write(fn, "Base", 3, 3, &B) != CG_OK) return lib("base");
+  if (CG->cg_base_write(fn, "Base", 3, 3, &B) != CG_OK) return lib("base");
   // SIDS 4.1: the data class of the base's data (coordinates): dimensional
   // values in no stated unit system.
-  if (cg_goto(fn, B, "end") != CG_OK || cg_dataclass_write(CGNS_ENUMV(NormalizedByUnknownDimensional)) != CG_OK)
+  if (CG->cg_goto(fn, B, "end") != CG_OK || CG->cg_dataclass_write(CGNS_ENUMV(NormalizedByUnknownDimensional)) != CG_OK)
     return lib("data class");
   const CgSize size[3] = {static_cast<CgSize>(m.nv()), static_cast<CgSize>(m.nt()), 0};
-  if (cg_zone_write(fn, B, "Zone", size, CGNS_ENUMV(Unstructured), &Z) != CG_OK) return lib("zone");
+  if (CG->cg_zone_write(fn, B, "Zone", size, CGNS_ENUMV(Unstructured), &Z) != CG_OK) return lib("zone");
   {
     std::vector<double> col(static_cast<size_t>(m.nv()));
     for (int a = 0; a < 3; ++a) {
       for (int32_t v = 0; v < m.nv(); ++v) col[v] = m.xyz[3 * static_cast<size_t>(v) + a];
       const char* cn = a == 0 ? "CoordinateX" : a == 1 ? "CoordinateY" : "CoordinateZ";
-      if (cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), cn, col.data(), &C) != CG_OK) return lib(cn);
+      if (CG->cg_coord_write(fn, B, Z, CGNS_ENUMV(RealDouble), cn, col.data(), &C) != CG_OK) return lib(cn);
       // SIDS 5.3: a coordinate is a length (exponent 1 of length, 0 of the rest).
       const float exps[5] = {0, 1, 0, 0, 0};
-      if (cg_goto(fn, B, "Zone_t", Z, "GridCoordinates", 0, "DataArray_t", C, "end") != CG_OK ||
-          cg_exponents_write(CGNS_ENUMV(RealSingle), exps) != CG_OK)
+      if (CG->cg_goto(fn, B, "Zone_t", Z, "GridCoordinates", 0, "DataArray_t", C, "end") != CG_OK ||
+          CG->cg_exponents_write(CGNS_ENUMV(RealSingle), exps) != CG_OK)
         return lib("exponents of " + std::string(cn));
     }
   }
   CgSize next = 1;
   auto ref_note = [&](int32_t ref, size_t position) -> Status {
     if (ref == static_cast<int64_t>(position) + 1) return Status::success();
-    if (cg_goto(fn, B, "Zone_t", Z, "Elements_t", S, "end") != CG_OK) return lib("goto section");
-    if (cg_descriptor_write("tetopt_ref", std::to_string(ref).c_str()) != CG_OK) return lib("descriptor");
+    if (CG->cg_goto(fn, B, "Zone_t", Z, "Elements_t", S, "end") != CG_OK) return lib("goto section");
+    if (CG->cg_descriptor_write("tetopt_ref", std::to_string(ref).c_str()) != CG_OK) return lib("descriptor");
     return Status::success();
   };
   for (size_t i = 0; i < p.tets.size(); ++i) {
@@ -454,7 +499,7 @@ Status detail::write_cgns_typed(const TetMesh& m, const std::string& path, int f
       for (int j = 0; j < 4; ++j) conn.push_back(v[j] + 1);
     }
     const CgSize end = next + static_cast<CgSize>(g.items.size()) - 1;
-    if (cg_section_write(fn, B, Z, g.name.c_str(), CGNS_ENUMV(TETRA_4), next, end, 0, conn.data(), &S) != CG_OK)
+    if (CG->cg_section_write(fn, B, Z, g.name.c_str(), CGNS_ENUMV(TETRA_4), next, end, 0, conn.data(), &S) != CG_OK)
       return lib("section " + g.name);
     if (Status s = ref_note(g.ref, i); !s) return s;
     next = end + 1;
@@ -466,13 +511,13 @@ Status detail::write_cgns_typed(const TetMesh& m, const std::string& path, int f
     for (int32_t t : g.items)
       for (int j = 0; j < 3; ++j) conn.push_back(m.tris[3 * static_cast<size_t>(t) + j] + 1);
     const CgSize end = next + static_cast<CgSize>(g.items.size()) - 1;
-    if (cg_section_write(fn, B, Z, g.name.c_str(), CGNS_ENUMV(TRI_3), next, end, 0, conn.data(), &S) != CG_OK)
+    if (CG->cg_section_write(fn, B, Z, g.name.c_str(), CGNS_ENUMV(TRI_3), next, end, 0, conn.data(), &S) != CG_OK)
       return lib("section " + g.name);
     if (Status s = ref_note(g.ref, i); !s) return s;
     const CGNS_ENUMT(BCType_t) bct = bc_type(m, g.ref);
     const CgSize range[2] = {next, end};
-    if (cg_boco_write(fn, B, Z, g.name.c_str(), bct, CGNS_ENUMV(PointRange), 2, range, &BC) != CG_OK) return lib("BC " + g.name);
-    if (cg_boco_gridlocation_write(fn, B, Z, BC, CGNS_ENUMV(FaceCenter)) != CG_OK) return lib("BC location " + g.name);
+    if (CG->cg_boco_write(fn, B, Z, g.name.c_str(), bct, CGNS_ENUMV(PointRange), 2, range, &BC) != CG_OK) return lib("BC " + g.name);
+    if (CG->cg_boco_gridlocation_write(fn, B, Z, BC, CGNS_ENUMV(FaceCenter)) != CG_OK) return lib("BC location " + g.name);
     const GroupAttachment* ga = m.attachment.find(2, g.ref);
     std::string fam = ga && !ga->cgns_family.empty() ? ga->cgns_family : g.name;
     for (char& ch : fam)
@@ -481,24 +526,24 @@ Status detail::write_cgns_typed(const TetMesh& m, const std::string& path, int f
     bool fam_exists = false;
     {
       int nf = 0;
-      cg_nfamilies(fn, B, &nf);
+      CG->cg_nfamilies(fn, B, &nf);
       for (int k = 1; k <= nf; ++k) {
         char fn2[33] = {0};
         int nbo = 0, ngeo = 0;
-        if (cg_family_read(fn, B, k, fn2, &nbo, &ngeo) == CG_OK && fam == fn2) fam_exists = true;
+        if (CG->cg_family_read(fn, B, k, fn2, &nbo, &ngeo) == CG_OK && fam == fn2) fam_exists = true;
       }
     }
     if (!fam_exists) {
-      if (cg_family_write(fn, B, fam.c_str(), &F) != CG_OK) return lib("family " + fam);
-      if (cg_fambc_write(fn, B, F, "FamBC", bct, &FB) != CG_OK) return lib("family BC " + fam);
+      if (CG->cg_family_write(fn, B, fam.c_str(), &F) != CG_OK) return lib("family " + fam);
+      if (CG->cg_fambc_write(fn, B, F, "FamBC", bct, &FB) != CG_OK) return lib("family BC " + fam);
     }
-    if (cg_goto(fn, B, "Zone_t", Z, "ZoneBC_t", 1, "BC_t", BC, "end") != CG_OK) return lib("goto BC");
-    if (cg_famname_write(fam.c_str()) != CG_OK) return lib("family name of BC " + g.name);
+    if (CG->cg_goto(fn, B, "Zone_t", Z, "ZoneBC_t", 1, "BC_t", BC, "end") != CG_OK) return lib("goto BC");
+    if (CG->cg_famname_write(fam.c_str()) != CG_OK) return lib("family name of BC " + g.name);
     next = end + 1;
   }
   const int fnum = c.fn;
   c.fn = -1;
-  if (cg_close(fnum) != CG_OK) return lib("closing the file");
+  if (CG->cg_close(fnum) != CG_OK) return lib("closing the file");
   return Status::success();
 }
 

@@ -51,7 +51,46 @@
 #include "tetopt/io.hpp"
 
 #if TETOPT_HAVE_EXODUS
+#include <dlfcn.h>
 #include <exodusII.h>
+
+// The Exodus II library is loaded when an Exodus file is first read or
+// written (dlopen), not linked: linked, it pulled Debian's MPI-enabled
+// netCDF, HDF5 and Open MPI into every program using tetopt, and the
+// address-space limits of tests/scripts/test_oom.sh and the Python tests no
+// longer left room for their out-of-memory cases.
+#define TETOPT_EXODUS_FUNCS(X) X(ex_close) X(ex_create_int) X(ex_get_block) X(ex_get_conn) X(ex_get_coord) X(ex_get_err) X(ex_get_ids) X(ex_get_init) X(ex_get_name) X(ex_get_prop) X(ex_get_prop_names) X(ex_get_set) X(ex_get_set_param) X(ex_inquire_int) X(ex_open_int) X(ex_opts) X(ex_put_block) X(ex_put_conn) X(ex_put_coord) X(ex_put_init) X(ex_put_name) X(ex_put_prop) X(ex_put_set) X(ex_put_set_param) X(ex_set_max_name_length)
+namespace tetopt {
+namespace {
+struct ExodusLib {
+#define TETOPT_X(f) decltype(&::f) f = nullptr;
+  TETOPT_EXODUS_FUNCS(TETOPT_X)
+#undef TETOPT_X
+  std::string why;  // empty when loaded
+};
+const ExodusLib* exodus_lib() {
+  static const ExodusLib lib = [] {
+    ExodusLib L;
+    void* h = nullptr;
+    for (const char* n : {TETOPT_EXODUS_SONAME, "libexoIIv2c.so.5", "libexoIIv2c.so"})
+      if (!h && n[0]) h = ::dlopen(n, RTLD_NOW | RTLD_LOCAL);
+    if (!h) {
+      const char* e = ::dlerror();
+      L.why = std::string("cannot load the Exodus II library (Debian: libexodusii5): ") + (e ? e : "dlopen failed");
+      return L;
+    }
+#define TETOPT_X(f)                                                        \
+  L.f = reinterpret_cast<decltype(L.f)>(::dlsym(h, #f));                   \
+  if (!L.f && L.why.empty()) L.why = "the Exodus II library lacks " #f;
+    TETOPT_EXODUS_FUNCS(TETOPT_X)
+#undef TETOPT_X
+    return L;
+  }();
+  return &lib;
+}
+#define EX exodus_lib()
+}  // namespace
+}  // namespace tetopt
 #endif
 
 namespace tetopt {
@@ -238,7 +277,7 @@ int64_t claim_limit(int64_t bytes) { return bytes * 64 + (1 << 16); }
 struct ExoCloser {
   int id = -1;
   ~ExoCloser() {
-    if (id >= 0) ex_close(id);
+    if (id >= 0) EX->ex_close(id);
   }
 };
 
@@ -246,7 +285,7 @@ std::string lib_error() {
   const char* msg = nullptr;
   const char* func = nullptr;
   int code = 0;
-  ex_get_err(&msg, &func, &code);
+  EX->ex_get_err(&msg, &func, &code);
   if (!msg || !*msg) return {};
   return ": " + detail::shown_token(msg, true);
 }
@@ -298,10 +337,26 @@ std::string check_cdf_header(const std::string& path, int64_t file_size) {
     if (n > left()) bad = true;
     else pos += static_cast<size_t>(n);
   };
+  std::string last_name;
   auto name = [&] {
     const uint64_t n = u(nw);
     if (n > 256) bad = true;  // NC_MAX_NAME
-    else skip(n);
+    else {
+      if (!bad && pos + n <= h.size()) last_name.assign(h, pos, static_cast<size_t>(n));
+      skip(n);
+    }
+  };
+  // Attributes the Exodus II library reads into one value or a fixed
+  // buffer (fuzzing: a 'file_size' of several values overran the stack in
+  // ex_large_model): one value each, and an element type of at most 32
+  // characters.
+  auto att_ok = [&](const std::string& an, uint64_t type, uint64_t cnt) {
+    static const char* const kScalar[] = {"api_version", "version", "floating_point_word_size", "file_size",
+                                          "maximum_name_length", "int64_status", "last_written_time"};
+    for (const char* k : kScalar)
+      if (an == k) return type != 2 && cnt == 1;
+    if (an == "elem_type" || an == "entity_type1" || an == "entity_type2") return type == 2 && cnt <= 32;
+    return true;
   };
   auto type_size = [](uint64_t t) -> uint64_t {
     switch (t) {
@@ -319,9 +374,10 @@ std::string check_cdf_header(const std::string& path, int64_t file_size) {
     if (tag != 0x0C || n > left() / 8) { bad = true; return; }
     for (uint64_t i = 0; i < n && !bad; ++i) {
       name();
-      const uint64_t ts = type_size(u(4));
+      const uint64_t type = u(4);
+      const uint64_t ts = type_size(type);
       const uint64_t cnt = u(nw);
-      if (ts == 0 || cnt > left() / ts) bad = true;
+      if (ts == 0 || cnt > left() / ts || !att_ok(last_name, type, cnt)) bad = true;
       else skip(cnt * ts);
     }
   };
@@ -345,14 +401,14 @@ std::string check_cdf_header(const std::string& path, int64_t file_size) {
     name();
     const uint64_t nd = u(nw);
     if (nd > 1024 || nd > left() / 4) return "a variable of the header has too many dimensions";
-    unsigned __int128 count = 1;
+    uint64_t count = 1;
     bool record = false;
     for (uint64_t k = 0; k < nd && !bad; ++k) {
       const uint64_t d = u(nw);
       if (d >= dims.size()) return "a variable of the header names a dimension it does not have";
       if (dims[d] == 0) record = true;
+      else if (count > (uint64_t{1} << 62) / dims[d]) return "a variable of the header is too large";
       else count *= dims[d];
-      if (count > (static_cast<unsigned __int128>(1) << 62)) return "a variable of the header is too large";
     }
     atts();
     const uint64_t ts = type_size(u(4));
@@ -360,10 +416,10 @@ std::string check_cdf_header(const std::string& path, int64_t file_size) {
     const uint64_t begin = u(ver == 1 ? 4 : 8);
     if (bad) break;
     if (ts == 0) return "a variable of the header has an unknown type";
-    const unsigned __int128 end = begin + (record ? 0 : count * ts);
     if (record && numrecs != 0xFFFFFFFFu && numrecs > 0 && begin > static_cast<uint64_t>(file_size))
       return "a variable's data starts past the end of the file (cut short?)";
-    if (!record && end > static_cast<uint64_t>(file_size)) return "a variable's data lies past the end of the file (cut short?)";
+    const uint64_t fs = static_cast<uint64_t>(file_size);
+    if (!record && (count > fs / ts || begin > fs - count * ts)) return "a variable's data lies past the end of the file (cut short?)";
   }
   if (bad) return "the header is cut or lies";
   return {};
@@ -380,17 +436,17 @@ class XReader {
   /// The refs of the objects of one kind: the TETOPT_REF property, else the IDs.
   Status refs(ex_entity_type type, ex_inquiry prop_inq, const std::vector<int>& ids, std::vector<int32_t>& out) const {
     out.assign(ids.begin(), ids.end());
-    const int64_t np = ex_inquire_int(id_, prop_inq);
+    const int64_t np = EX->ex_inquire_int(id_, prop_inq);
     if (np <= 0 || np > 1024 || ids.empty()) return Status::success();
     std::vector<std::vector<char>> buf(static_cast<size_t>(np), std::vector<char>(260, 0));
     std::vector<char*> names;
     for (auto& b : buf) names.push_back(b.data());
-    if (ex_get_prop_names(id_, type, names.data()) < 0) return Status::success();
+    if (EX->ex_get_prop_names(id_, type, names.data()) < 0) return Status::success();
     for (const auto& b : buf)
       if (std::strcmp(b.data(), "TETOPT_REF") == 0) {
         for (size_t i = 0; i < ids.size(); ++i) {
           int v = 0;
-          if (ex_get_prop(id_, type, ids[i], "TETOPT_REF", &v) < 0) return lib("reading property TETOPT_REF");
+          if (EX->ex_get_prop(id_, type, ids[i], "TETOPT_REF", &v) < 0) return lib("reading property TETOPT_REF");
           out[i] = v;
         }
       }
@@ -398,7 +454,7 @@ class XReader {
   }
   std::string name(ex_entity_type type, int id) const {
     char buf[260] = {0};
-    if (ex_get_name(id_, type, id, buf) < 0) return {};
+    if (EX->ex_get_name(id_, type, id, buf) < 0) return {};
     buf[256] = '\0';
     return buf;
   }
@@ -418,14 +474,14 @@ Status XReader::run(TetMesh& m) {
   int cpu_ws = 8, io_ws = 0;
   float version = 0;
   ExoCloser c;
-  c.id = ex_open(path_.c_str(), EX_READ, &cpu_ws, &io_ws, &version);
+  c.id = EX->ex_open_int(path_.c_str(), EX_READ, &cpu_ws, &io_ws, &version, EX_API_VERS_NODOT);
   if (c.id < 0) return fail("not an Exodus II file (the library cannot open it" + lib_error() + ")");
   id_ = c.id;
-  const int64_t used = ex_inquire_int(id_, EX_INQ_DB_MAX_USED_NAME_LENGTH);
-  ex_set_max_name_length(id_, static_cast<int>(std::clamp<int64_t>(used, 32, 255)));
+  const int64_t used = EX->ex_inquire_int(id_, EX_INQ_DB_MAX_USED_NAME_LENGTH);
+  EX->ex_set_max_name_length(id_, static_cast<int>(std::clamp<int64_t>(used, 32, 255)));
   char title[MAX_LINE_LENGTH + 1] = {0};
   int ndim = 0, nv = 0, ne = 0, nblk = 0, nns = 0, nss = 0;
-  if (ex_get_init(id_, title, &ndim, &nv, &ne, &nblk, &nns, &nss) < 0) return lib("reading the initialization parameters");
+  if (EX->ex_get_init(id_, title, &ndim, &nv, &ne, &nblk, &nns, &nss) < 0) return lib("reading the initialization parameters");
   if (ndim != 3) return fail("a " + std::to_string(ndim) + "-dimensional model (tetopt reads 3-dimensional ones)", ErrorCode::Unsupported);
   if (nv < 1) return fail("no nodes");
   if (ne < 1 || nblk < 1) return fail("no elements");
@@ -441,7 +497,7 @@ Status XReader::run(TetMesh& m) {
   // Coordinates.
   {
     std::vector<double> x(static_cast<size_t>(nv)), y(x.size()), z(x.size());
-    if (ex_get_coord(id_, x.data(), y.data(), z.data()) < 0) return lib("reading the coordinates");
+    if (EX->ex_get_coord(id_, x.data(), y.data(), z.data()) < 0) return lib("reading the coordinates");
     m.xyz.resize(3 * x.size());
     for (size_t v = 0; v < x.size(); ++v) {
       if (!std::isfinite(x[v]) || !std::isfinite(y[v]) || !std::isfinite(z[v]))
@@ -453,7 +509,7 @@ Status XReader::run(TetMesh& m) {
   }
   // Element blocks.
   std::vector<int> bids(static_cast<size_t>(nblk));
-  if (ex_get_ids(id_, EX_ELEM_BLOCK, bids.data()) < 0) return lib("reading the element block IDs");
+  if (EX->ex_get_ids(id_, EX_ELEM_BLOCK, bids.data()) < 0) return lib("reading the element block IDs");
   std::vector<int32_t> brefs;
   if (Status s = refs(EX_ELEM_BLOCK, EX_INQ_EB_PROP, bids, brefs); !s) return s;
   int64_t total = 0;
@@ -461,7 +517,7 @@ Status XReader::run(TetMesh& m) {
     char type[MAX_STR_LENGTH + 260] = {0};
     int nel = 0, npe = 0, ned = 0, nfa = 0, nat = 0;
     const std::string shown = "element block " + std::to_string(bids[b]);
-    if (ex_get_block(id_, EX_ELEM_BLOCK, bids[b], type, &nel, &npe, &ned, &nfa, &nat) < 0) return lib("reading " + shown);
+    if (EX->ex_get_block(id_, EX_ELEM_BLOCK, bids[b], type, &nel, &npe, &ned, &nfa, &nat) < 0) return lib("reading " + shown);
     type[MAX_STR_LENGTH] = '\0';
     if (nel == 0) continue;
     if (!is_tet_type(type) || npe != 4)
@@ -471,7 +527,7 @@ Status XReader::run(TetMesh& m) {
     total += nel;
     if (nel < 0 || total > ne) return fail(shown + ": more elements than the file's " + std::to_string(ne));
     std::vector<int> conn(4 * static_cast<size_t>(nel));
-    if (ex_get_conn(id_, EX_ELEM_BLOCK, bids[b], conn.data(), nullptr, nullptr) < 0) return lib("reading the connectivity of " + shown);
+    if (EX->ex_get_conn(id_, EX_ELEM_BLOCK, bids[b], conn.data(), nullptr, nullptr) < 0) return lib("reading the connectivity of " + shown);
     for (size_t k = 0; k < conn.size(); ++k) {
       if (conn[k] < 1 || conn[k] > nv)
         return fail(shown + ": element " + std::to_string(k / 4 + 1) + ": node " + std::to_string(conn[k]) + " out of range 1.." + std::to_string(nv));
@@ -484,16 +540,16 @@ Status XReader::run(TetMesh& m) {
   // Side sets.
   if (nss > 0) {
     std::vector<int> ids(static_cast<size_t>(nss));
-    if (ex_get_ids(id_, EX_SIDE_SET, ids.data()) < 0) return lib("reading the side set IDs");
+    if (EX->ex_get_ids(id_, EX_SIDE_SET, ids.data()) < 0) return lib("reading the side set IDs");
     std::vector<int32_t> r;
     if (Status s = refs(EX_SIDE_SET, EX_INQ_SS_PROP, ids, r); !s) return s;
     for (size_t i = 0; i < ids.size(); ++i) {
       const std::string shown = "side set " + std::to_string(ids[i]);
       int n = 0, nd = 0;
-      if (ex_get_set_param(id_, EX_SIDE_SET, ids[i], &n, &nd) < 0) return lib("reading " + shown);
+      if (EX->ex_get_set_param(id_, EX_SIDE_SET, ids[i], &n, &nd) < 0) return lib("reading " + shown);
       if (n < 0 || n > 4 * static_cast<int64_t>(ne)) return fail(shown + ": " + std::to_string(n) + " sides, more than the elements have");
       std::vector<int> el(static_cast<size_t>(n)), side(static_cast<size_t>(n));
-      if (n > 0 && ex_get_set(id_, EX_SIDE_SET, ids[i], el.data(), side.data()) < 0) return lib("reading " + shown);
+      if (n > 0 && EX->ex_get_set(id_, EX_SIDE_SET, ids[i], el.data(), side.data()) < 0) return lib("reading " + shown);
       for (int k = 0; k < n; ++k) {
         if (el[k] < 1 || el[k] > ne) return fail(shown + ": element " + std::to_string(el[k]) + " out of range 1.." + std::to_string(ne));
         if (side[k] < 1 || side[k] > 4) return fail(shown + ": side " + std::to_string(side[k]) + " of element " + std::to_string(el[k]) + " (a TETRA has sides 1-4)");
@@ -508,17 +564,17 @@ Status XReader::run(TetMesh& m) {
   m.vert_ref.assign(static_cast<size_t>(nv), 0);
   if (nns > 0) {
     std::vector<int> ids(static_cast<size_t>(nns));
-    if (ex_get_ids(id_, EX_NODE_SET, ids.data()) < 0) return lib("reading the node set IDs");
+    if (EX->ex_get_ids(id_, EX_NODE_SET, ids.data()) < 0) return lib("reading the node set IDs");
     std::vector<int32_t> r;
     if (Status s = refs(EX_NODE_SET, EX_INQ_NS_PROP, ids, r); !s) return s;
     std::vector<uint8_t> done(static_cast<size_t>(nv), 0);
     for (size_t i = 0; i < ids.size(); ++i) {
       const std::string shown = "node set " + std::to_string(ids[i]);
       int n = 0, nd = 0;
-      if (ex_get_set_param(id_, EX_NODE_SET, ids[i], &n, &nd) < 0) return lib("reading " + shown);
+      if (EX->ex_get_set_param(id_, EX_NODE_SET, ids[i], &n, &nd) < 0) return lib("reading " + shown);
       if (n < 0 || n > limit) return fail(shown + ": claims " + std::to_string(n) + " nodes, more than the file can hold");
       std::vector<int> nodes(static_cast<size_t>(n));
-      if (n > 0 && ex_get_set(id_, EX_NODE_SET, ids[i], nodes.data(), nullptr) < 0) return lib("reading " + shown);
+      if (n > 0 && EX->ex_get_set(id_, EX_NODE_SET, ids[i], nodes.data(), nullptr) < 0) return lib("reading " + shown);
       for (int v : nodes) {
         if (v < 1 || v > nv) return fail(shown + ": node " + std::to_string(v) + " out of range 1.." + std::to_string(nv));
         if (!done[v - 1]) {
@@ -534,31 +590,33 @@ Status XReader::run(TetMesh& m) {
 
 }  // namespace
 
-bool exodus_available() { return true; }
+bool exodus_available() { return EX->why.empty(); }
 
 Status parse_exodus_file(const std::string& path, const std::string& name, TetMesh& m) {
   const std::lock_guard<std::mutex> lock(exodus_mutex());
-  ex_opts(EX_DEFAULT);  // no messages on stderr, and never exit() on an error
+  if (!EX->why.empty()) return Status::error(ErrorCode::Unsupported, name + ": " + EX->why);
+  EX->ex_opts(EX_DEFAULT);  // no messages on stderr, and never exit() on an error
   XReader r(path, name);
   return r.run(m);
 }
 
 Status format_exodus_file(const TetMesh& m, const std::string& path) {
   const std::lock_guard<std::mutex> lock(exodus_mutex());
-  ex_opts(EX_DEFAULT);
+  if (!EX->why.empty()) return Status::error(ErrorCode::Unsupported, EX->why);
+  EX->ex_opts(EX_DEFAULT);
   auto lib = [](const std::string& what) { return Status::error(ErrorCode::Io, "Exodus II: " + what + lib_error()); };
   if (m.nv() < 1 || m.nt() < 1) return Status::error(ErrorCode::Unsupported, "Exodus II: a model needs nodes and elements");
   XPlan p;
   make_plan(m, p);
   int cpu_ws = 8, io_ws = 8;
   ExoCloser c;
-  c.id = ex_create(path.c_str(), EX_CLOBBER, &cpu_ws, &io_ws);
+  c.id = EX->ex_create_int(path.c_str(), EX_CLOBBER, &cpu_ws, &io_ws, EX_API_VERS_NODOT);
   if (c.id < 0) return lib("cannot create the file");
   const int id = c.id;
   size_t longest = 32;
   for (const PhysicalName& pn : m.physical_names) longest = std::max(longest, std::min<size_t>(pn.name.size(), 255));
-  ex_set_max_name_length(id, static_cast<int>(longest));
-  if (ex_put_init(id, "tetopt mesh", 3, m.nv(), m.nt(), static_cast<int64_t>(p.blocks.size()),
+  EX->ex_set_max_name_length(id, static_cast<int>(longest));
+  if (EX->ex_put_init(id, "tetopt mesh", 3, m.nv(), m.nt(), static_cast<int64_t>(p.blocks.size()),
                   static_cast<int64_t>(p.nsets.size()), static_cast<int64_t>(p.ssets.size())) < 0)
     return lib("initialization parameters");
   {
@@ -568,46 +626,46 @@ Status format_exodus_file(const TetMesh& m, const std::string& path) {
       y[v] = m.xyz[3 * v + 1];
       z[v] = m.xyz[3 * v + 2];
     }
-    if (ex_put_coord(id, x.data(), y.data(), z.data()) < 0) return lib("coordinates");
+    if (EX->ex_put_coord(id, x.data(), y.data(), z.data()) < 0) return lib("coordinates");
   }
   auto put_name = [&](ex_entity_type type, int64_t oid, int dim, int32_t ref) -> Status {
     const std::string* n = name_of(m, dim, ref);
     if (!n) return Status::success();
     const std::string cut = n->substr(0, 255);
-    if (ex_put_name(id, type, oid, cut.c_str()) < 0) return lib("name " + cut);
+    if (EX->ex_put_name(id, type, oid, cut.c_str()) < 0) return lib("name " + cut);
     return Status::success();
   };
   for (const XPlan::Group& g : p.blocks) {
-    if (ex_put_block(id, EX_ELEM_BLOCK, g.id, "TETRA", static_cast<int64_t>(g.items.size()), 4, 0, 0, 0) < 0)
+    if (EX->ex_put_block(id, EX_ELEM_BLOCK, g.id, "TETRA", static_cast<int64_t>(g.items.size()), 4, 0, 0, 0) < 0)
       return lib("element block " + std::to_string(g.id));
     std::vector<int> conn;
     conn.reserve(4 * g.items.size());
     for (int64_t t : g.items)
       for (int j = 0; j < 4; ++j) conn.push_back(p.file_tets[static_cast<size_t>(t)][j] + 1);
-    if (ex_put_conn(id, EX_ELEM_BLOCK, g.id, conn.data(), nullptr, nullptr) < 0) return lib("connectivity of block " + std::to_string(g.id));
+    if (EX->ex_put_conn(id, EX_ELEM_BLOCK, g.id, conn.data(), nullptr, nullptr) < 0) return lib("connectivity of block " + std::to_string(g.id));
     if (Status s = put_name(EX_ELEM_BLOCK, g.id, 3, g.ref); !s) return s;
   }
   for (const XPlan::Group& g : p.ssets) {
-    if (ex_put_set_param(id, EX_SIDE_SET, g.id, static_cast<int64_t>(g.items.size()), 0) < 0) return lib("side set " + std::to_string(g.id));
+    if (EX->ex_put_set_param(id, EX_SIDE_SET, g.id, static_cast<int64_t>(g.items.size()), 0) < 0) return lib("side set " + std::to_string(g.id));
     std::vector<int> el, side;
     for (int64_t ef : g.items) {
       el.push_back(p.block_pos[static_cast<size_t>(ef / 4)] + 1);
       side.push_back(static_cast<int>(ef % 4) + 1);
     }
-    if (!g.items.empty() && ex_put_set(id, EX_SIDE_SET, g.id, el.data(), side.data()) < 0) return lib("side set " + std::to_string(g.id));
+    if (!g.items.empty() && EX->ex_put_set(id, EX_SIDE_SET, g.id, el.data(), side.data()) < 0) return lib("side set " + std::to_string(g.id));
     if (Status s = put_name(EX_SIDE_SET, g.id, 2, g.ref); !s) return s;
   }
   for (const XPlan::Group& g : p.nsets) {
-    if (ex_put_set_param(id, EX_NODE_SET, g.id, static_cast<int64_t>(g.items.size()), 0) < 0) return lib("node set " + std::to_string(g.id));
+    if (EX->ex_put_set_param(id, EX_NODE_SET, g.id, static_cast<int64_t>(g.items.size()), 0) < 0) return lib("node set " + std::to_string(g.id));
     std::vector<int> nodes;
     for (int64_t v : g.items) nodes.push_back(static_cast<int>(v) + 1);
-    if (ex_put_set(id, EX_NODE_SET, g.id, nodes.data(), nullptr) < 0) return lib("node set " + std::to_string(g.id));
+    if (EX->ex_put_set(id, EX_NODE_SET, g.id, nodes.data(), nullptr) < 0) return lib("node set " + std::to_string(g.id));
     if (Status s = put_name(EX_NODE_SET, g.id, 0, g.ref); !s) return s;
   }
   auto props = [&](bool needed, ex_entity_type type, const std::vector<XPlan::Group>& gs) -> Status {
     if (!needed) return Status::success();
     for (const XPlan::Group& g : gs)
-      if (ex_put_prop(id, type, g.id, "TETOPT_REF", g.ref) < 0) return lib("property TETOPT_REF");
+      if (EX->ex_put_prop(id, type, g.id, "TETOPT_REF", g.ref) < 0) return lib("property TETOPT_REF");
     return Status::success();
   };
   if (Status s = props(p.block_prop, EX_ELEM_BLOCK, p.blocks); !s) return s;
@@ -615,7 +673,7 @@ Status format_exodus_file(const TetMesh& m, const std::string& path) {
   if (Status s = props(p.nset_prop, EX_NODE_SET, p.nsets); !s) return s;
   const int closing = c.id;
   c.id = -1;
-  if (ex_close(closing) < 0) return lib("closing the file");
+  if (EX->ex_close(closing) < 0) return lib("closing the file");
   return Status::success();
 }
 
