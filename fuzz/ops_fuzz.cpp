@@ -1,5 +1,6 @@
-// libFuzzer target: random sequences of smoothing, topological operations and
-// untangling on a small generated box mesh, validating after every step.
+// libFuzzer target: random sequences of smoothing, topological operations
+// (the remesher's edge split and collapse included) and untangling on a
+// small generated box mesh, validating after every step.
 //
 // Input layout: 6 header bytes (cells per axis, jitter, regions, seed,
 // tangle count), then tangle records (3 bytes: vertex, move) that drag free
@@ -161,8 +162,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     to.worsen_bound = (c & 0x40) ? 0.5 : 0.0;
     to.quality_threshold = 0.1 + (c & 7) * 0.15;
     to.passes = 1 + ((c >> 4) & 1);  // flip_pass / remove_all_boundary_tets sweeps (default 5)
-    if (op % 10 >= 6 && ++passes > kMaxPasses) continue;
-    switch (op % 10) {
+    if (op % 12 >= 6 && op % 12 <= 9 && ++passes > kMaxPasses) continue;
+    switch (op % 12) {
       case 0: {
         SmoothOptions so;
         so.optimizer = (c & 1) ? Optimizer::MaxMin : Optimizer::Paper;
@@ -192,6 +193,22 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         so.all_vertices = c & 0x80;
         smooth_pass(m, so);
         check("smooth_pass");
+        break;
+      }
+      case 10:
+      case 11: {
+        // The remesher's operations (issue 27) with the loosest acceptance
+        // (any positive tets), on an edge of t.
+        TopoEditor ed(m, to);
+        Acceptance acc;
+        acc.on = true;
+        acc.floor = (c & 0x80) ? 0.0 : 0.2;
+        acc.cap = (c & 0x20) ? 1.0 : 0.3;
+        acc.ratio = 0.5 + ((c >> 1) & 3) * 0.15;
+        if (op % 12 == 10) ed.split_edge(t, c % 6, acc, 0.25 + 0.5 * (a & 1));
+        else ed.collapse_edge(t, c % 6, acc);
+        ed.finish();
+        check(op % 12 == 10 ? "split_edge" : "collapse_edge");
         break;
       }
       case 9: {
