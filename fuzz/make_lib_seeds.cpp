@@ -38,10 +38,11 @@ int main(int argc, char** argv) {
     }
   };
   if (cgns_available()) {
-    check(detail::write_cgns_typed(one, dir + "/cgns/seed-adf-cube", 1), "cgns adf cube");
-    check(detail::write_cgns_typed(two, dir + "/cgns/seed-adf-two-regions-named", 1), "cgns adf two");
-    check(detail::write_cgns_typed(bare, dir + "/cgns/seed-adf-no-triangles", 1), "cgns adf bare");
+    // HDF5 only: the reader refuses ADF files (src/io/cgns.cpp: libcgns
+    // 3.4 overruns a heap buffer on some malformed ADF files).
     check(detail::write_cgns_typed(one, dir + "/cgns/seed-hdf5-cube", 2), "cgns hdf5 cube");
+    check(detail::write_cgns_typed(two, dir + "/cgns/seed-hdf5-two-regions-named", 2), "cgns hdf5 two");
+    check(detail::write_cgns_typed(bare, dir + "/cgns/seed-hdf5-no-triangles", 2), "cgns hdf5 bare");
   }
   if (exodus_available()) {
     check(format_exodus_file(one, dir + "/exodus/seed-cube"), "exodus cube");

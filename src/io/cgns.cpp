@@ -42,6 +42,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -260,8 +261,37 @@ Status CReader::run(TetMesh& m) {
   if (::stat(path_.c_str(), &st) != 0) return fail("no such file", ErrorCode::Io);
   if (!S_ISREG(st.st_mode)) return fail("not a regular file", ErrorCode::Io);
   const int64_t limit = claim_limit(static_cast<int64_t>(st.st_size));
+  // Only HDF5 CGNS files reach libcgns.  libcgns 3.4.0 writes past a heap
+  // buffer while cg_is_cgns opens some malformed ADF files (found by
+  // fuzz/cgns_fuzz.cpp, 2026-11-28: ADFI_read_sub_node_table), before any
+  // check of ours could run, so a hostile ADF file could corrupt tetopt's
+  // memory: ADF input is refused, with the conversion that helps.  The HDF5
+  // signature is at offset 0, or 512, 1024, 2048, ... after a user block
+  // (HDF5 File Format Specification, "Format Signature").
+  {
+    static const unsigned char kHdf5[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
+    std::FILE* f = std::fopen(path_.c_str(), "rb");
+    if (!f) return fail(std::string("cannot open: ") + std::strerror(errno), ErrorCode::Io);
+    bool hdf5 = false, adf = false;
+    unsigned char head[32] = {0};
+    const size_t got = std::fread(head, 1, sizeof head, f);
+    // An ADF file opens with "@(#)" (libcgns writes it with the high bits
+    // set) and "ADF Database Version" (ADF User's Guide, file header).
+    adf = got >= 16 && std::memcmp(head + 4, "ADF Database", 12) == 0;
+    for (long off = 0; !hdf5 && off <= (1L << 20) && off + 8 <= static_cast<long>(st.st_size); off = off ? 2 * off : 512) {
+      unsigned char sig[8];
+      if (std::fseek(f, off, SEEK_SET) != 0 || std::fread(sig, 1, 8, f) != 8) break;
+      hdf5 = std::memcmp(sig, kHdf5, 8) == 0;
+    }
+    std::fclose(f);
+    if (adf)
+      return fail("an ADF-format CGNS file: tetopt reads HDF5 CGNS only (libcgns 3.4 can overrun memory on a malformed "
+                  "ADF file); convert it first with 'adf2hdf IN.cgns OUT.cgns' (Debian's cgns-convert)",
+                  ErrorCode::Unsupported);
+    if (!hdf5) return fail("not a CGNS file (no HDF5 signature)");
+  }
   int ftype = 0;
-  if (CG->cg_is_cgns(path_.c_str(), &ftype) != CG_OK) return fail("not a CGNS file (neither a CGNS HDF5 nor an ADF file)");
+  if (CG->cg_is_cgns(path_.c_str(), &ftype) != CG_OK) return fail("not a CGNS file (an HDF5 file that libcgns does not take)");
   Closer c;
   if (CG->cg_open(path_.c_str(), CG_MODE_READ, &c.fn) != CG_OK) {
     c.fn = -1;
