@@ -774,7 +774,8 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         p.best_alpha = p.wedge_alpha;
         p.face = p.wedge_face;
       } else {
-        p.wedge_alpha = NAN;  // no tighter than the triangle's own bound
+        p.wedge_alpha = p.wedge_deg = NAN;  // no tighter than the triangle's own bound
+        p.wedge_face = -1;
       }
     }
     if (!std::isnan(p.best_alpha) && p.best_alpha < opt.threshold) p.cls = TetClass::LockedByTriangle;
@@ -893,7 +894,7 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
       << ", \"alpha\": " << num(p.alpha) << ", \"dihedral_min\": " << num(p.dihedral_min)
       << ", \"dihedral_max\": " << num(p.dihedral_max) << ", \"kind\": " << p.kind
       << ", \"best_alpha\": " << num(p.best_alpha) << ", \"face\": " << p.face
-      << ", \"wedge_deg\": " << num(p.wedge_alpha == p.wedge_alpha ? p.wedge_deg : NAN) << ", \"centroid\": ["
+      << ", \"wedge_deg\": " << num(p.wedge_deg) << ", \"centroid\": ["
       << num(p.centroid[0]) << ", " << num(p.centroid[1]) << ", " << num(p.centroid[2]) << "]}";
   }
   o << (n ? "\n" + pad : "") << "]\n}";

@@ -927,6 +927,27 @@ TopoResult TopoEditor::remove_multi_face(int32_t t, int lf) {
   return r;
 }
 
+// A new free vertex at x, appended (existing ids unchanged): vert_ref 0 when
+// the mesh has vertex refs, point fields 0; pop_vertex takes the last back.
+int32_t TopoEditor::push_vertex(const double* x) {
+  const int32_t nv = m_.nv();
+  m_.xyz.insert(m_.xyz.end(), x, x + 3);
+  if (m_.vert_ref.size() == static_cast<size_t>(nv)) m_.vert_ref.push_back(0);
+  m_.vert_constrained.push_back(0);
+  for (auto& pf : m_.point_fields) pf.values.insert(pf.values.end(), pf.components, 0.0);
+  vstamp_.push_back(0);
+  return nv;
+}
+
+void TopoEditor::pop_vertex() {
+  const int32_t nv = m_.nv() - 1;
+  m_.xyz.resize(3 * static_cast<size_t>(nv));
+  if (m_.vert_ref.size() == static_cast<size_t>(nv) + 1) m_.vert_ref.pop_back();
+  m_.vert_constrained.pop_back();
+  for (auto& pf : m_.point_fields) pf.values.resize(pf.values.size() - pf.components);
+  vstamp_.pop_back();
+}
+
 TopoResult TopoEditor::insert_vertex(int32_t t) {
   if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
   Candidate& c = *cand_;
@@ -1113,13 +1134,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   if (!(fx > c.old_min + o_.margin)) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
   // Append the vertex (existing ids unchanged), plan, and take it back if the
   // plan fails.
-  const int32_t nv = m_.nv();
-  const bool has_vref = m_.vert_ref.size() == static_cast<size_t>(nv);
-  m_.xyz.insert(m_.xyz.end(), bx, bx + 3);
-  if (has_vref) m_.vert_ref.push_back(0);
-  m_.vert_constrained.push_back(0);
-  for (auto& pf : m_.point_fields) pf.values.insert(pf.values.end(), pf.components, 0.0);
-  vstamp_.push_back(0);
+  const int32_t nv = push_vertex(bx);
   c.n_new = nf;
   for (int i = 0; i < nf; ++i) {
     c.quad[i][0] = face[i][0];
@@ -1129,11 +1144,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   }
   const TopoResult r = finish_plan(true, c);
   if (r != TopoResult::Applied) {
-    m_.xyz.resize(3 * static_cast<size_t>(nv));
-    if (has_vref) m_.vert_ref.pop_back();
-    m_.vert_constrained.pop_back();
-    for (auto& pf : m_.point_fields) pf.values.resize(pf.values.size() - pf.components);
-    vstamp_.pop_back();
+    pop_vertex();
     return r;
   }
   commit(c);
@@ -1326,13 +1337,7 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
     }
     if (fx < floor) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
   }
-  const int32_t nv = m_.nv();
-  const bool has_vref = m_.vert_ref.size() == static_cast<size_t>(nv);
-  m_.xyz.insert(m_.xyz.end(), x, x + 3);
-  if (has_vref) m_.vert_ref.push_back(0);
-  m_.vert_constrained.push_back(0);
-  for (auto& pf : m_.point_fields) pf.values.insert(pf.values.end(), pf.components, 0.0);
-  vstamp_.push_back(0);
+  const int32_t nv = push_vertex(x);
   c.n_new = 2 * n;
   for (int i = 0; i < n; ++i) {
     const int32_t r0 = ring[i], r1 = ring[(i + 1) % n];
@@ -1346,11 +1351,7 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
   const TopoResult r = finish_plan(true, c);
   accept_ = {};
   if (r != TopoResult::Applied) {
-    m_.xyz.resize(3 * static_cast<size_t>(nv));
-    if (has_vref) m_.vert_ref.pop_back();
-    m_.vert_constrained.pop_back();
-    for (auto& pf : m_.point_fields) pf.values.resize(pf.values.size() - pf.components);
-    vstamp_.pop_back();
+    pop_vertex();
     return r;
   }
   commit(c);

@@ -364,6 +364,9 @@ class TopoEditor {
   // refuses an edge on a constrained face, a listed edge or a boundary edge.
   TopoResult gather_shell(int32_t t, int le, int32_t& a, int32_t& b, int32_t* ring, int32_t* shell, int& n,
                           std::vector<int32_t>* reads) const;
+  // insert_vertex / split_edge: append a free vertex at x (its id), take it back.
+  int32_t push_vertex(const double* x);
+  void pop_vertex();
   // remove_vertex's contraction, limited to vertex only_v onto only_w (-1: any).
   TopoResult contract(int32_t t, int32_t only_v, int32_t only_w);
   Acceptance accept_;  // finish_plan also accepts what accept_ admits (split / collapse)

@@ -129,7 +129,9 @@ TEST(Diagnose, NeedleTriangleLocksItsTet) {
   // the boundary, so a wedge of two of them may bound it tighter still).
   const double needle = best_apex(p[0], p[1], p[2]).value;
   EXPECT_LE(d.poor[0].best_alpha, needle + 1e-9);
-  if (std::isnan(d.poor[0].wedge_alpha)) EXPECT_EQ(d.poor[0].face, 3);  // the face opposite vertex 3
+  if (std::isnan(d.poor[0].wedge_alpha)) {
+    EXPECT_EQ(d.poor[0].face, 3);  // the face opposite vertex 3
+  }
   // The mesh-wide bound is that bound.
   EXPECT_EQ(d.bound.triangles, 4);
   EXPECT_NEAR(d.bound.alpha, d.poor[0].best_alpha, 1e-9);
@@ -392,7 +394,9 @@ TEST(Diagnose, SharpWedgeBoundsTheTetOnItsFaces) {
     }
     EXPECT_GE(w, sampled - 1e-9);
     EXPECT_LT(w - sampled, 0.05);  // and sampling gets close
-    if (deg <= 10) EXPECT_LT(w, 0.5 * free_bound) << "a sharp wedge must tighten the bound";
+    if (deg <= 10) {
+      EXPECT_LT(w, 0.5 * free_bound) << "a sharp wedge must tighten the bound";
+    }
   }
 }
 
