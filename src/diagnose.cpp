@@ -17,6 +17,7 @@
 
 #include "tetopt/conventions.hpp"
 #include "tetopt/measures.hpp"
+#include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
 
 namespace tetopt {
@@ -575,6 +576,109 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+namespace {
+
+// MeshBound::below_at_least.  cheap: each face's achieved alpha (a lower
+// estimate of its best apex); cache: best alpha by triangle shape, as the
+// bound's own search filled it.
+std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces,
+                                   const std::vector<double>& cheap,
+                                   std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>& cache,
+                                   int threads) {
+  constexpr double kTol = 1e-4;  // the alpha search's exactness (diagnose.hpp)
+  const double top = kCountThresholds.back();
+  // The triangles whose achieved value leaves them in doubt: searched in full.
+  std::vector<size_t> doubt;
+  for (size_t i = 0; i < faces.size(); ++i)
+    if (cheap[i] < top - kTol) doubt.push_back(i);
+  std::vector<double> best(doubt.size());
+  std::vector<uint8_t> known(doubt.size(), 0);
+  for (size_t j = 0; j < doubt.size(); ++j) {  // shapes already searched by the bound
+    const double* p[3];
+    face_points(m, faces[doubt[j]], p);
+    std::pair<int64_t, int64_t> key;
+    if (!shape_key(Frame(p[0], p[1], p[2]), key)) {
+      best[j] = 0;  // degenerate: no apex gives a positive alpha
+      known[j] = 1;
+    } else if (const auto it = cache.find(key); it != cache.end()) {
+      best[j] = it->second;
+      known[j] = 1;
+    }
+  }
+  detail::parallel_for_each(static_cast<int64_t>(doubt.size()), threads, [&](int64_t j) {
+    if (known[j]) return;
+    const double* p[3];
+    face_points(m, faces[doubt[j]], p);
+    best[j] = best_apex(p[0], p[1], p[2], ApexObjective::Alpha).value;
+  });
+  std::array<int64_t, 3> out{};
+  for (size_t k = 0; k < kCountThresholds.size(); ++k) {
+    const double tau = kCountThresholds[k];
+    // The bad triangles' edges (sorted vertex pairs) with their triangle.
+    std::vector<size_t> bad;
+    for (size_t j = 0; j < doubt.size(); ++j)
+      if (std::max(best[j], cheap[doubt[j]]) < tau - kTol) bad.push_back(j);
+    std::vector<std::pair<std::pair<int32_t, int32_t>, size_t>> edges;
+    edges.reserve(3 * bad.size());
+    for (size_t b = 0; b < bad.size(); ++b) {
+      const int32_t packed = faces[doubt[bad[b]]];
+      const int32_t* v = m.tet(packed >> 2);
+      const int f = packed & 3;
+      for (int e = 0; e < 3; ++e) {
+        const int32_t x = v[kFaceVertex[f][e]], y = v[kFaceVertex[f][(e + 1) % 3]];
+        edges.push_back({{std::min(x, y), std::max(x, y)}, b});
+      }
+    }
+    std::sort(edges.begin(), edges.end());
+    // Whether point x lies strictly on a side of bad triangle b that has
+    // tets: either side of a two-sided one, else the side of its tet's apex.
+    auto on_a_side = [&](size_t b, const double* x) {
+      const int32_t packed = faces[doubt[bad[b]]];
+      const int32_t* v = m.tet(packed >> 2);
+      const int f = packed & 3;
+      const double *a = m.point(v[kFaceVertex[f][0]]), *q = m.point(v[kFaceVertex[f][1]]),
+                   *r = m.point(v[kFaceVertex[f][2]]);
+      const Sign s = orient3d(a, q, r, x);
+      if (s == Sign::Zero) return false;
+      return m.adj[static_cast<size_t>(packed)] >= 0 || s == orient3d(a, q, r, m.point(v[f]));
+    };
+    auto other_vertex = [&](size_t b, int32_t x, int32_t y) {
+      const int32_t packed = faces[doubt[bad[b]]];
+      const int32_t* v = m.tet(packed >> 2);
+      for (int e = 0; e < 3; ++e) {
+        const int32_t w = v[kFaceVertex[packed & 3][e]];
+        if (w != x && w != y) return w;
+      }
+      return int32_t{-1};
+    };
+    // Two bad triangles sharing an edge can be faces of one tet only when
+    // each one's far vertex lies on a side of the other that has tets.
+    std::vector<uint8_t> partnered(bad.size(), 0);
+    for (size_t i = 0; i < edges.size();) {
+      size_t j = i;
+      while (j < edges.size() && edges[j].first == edges[i].first) ++j;
+      const auto [x, y] = edges[i].first;
+      for (size_t p = i; p < j; ++p)
+        for (size_t q = p + 1; q < j; ++q) {
+          const size_t b1 = edges[p].second, b2 = edges[q].second;
+          if (on_a_side(b1, m.point(other_vertex(b2, x, y))) && on_a_side(b2, m.point(other_vertex(b1, x, y))))
+            partnered[b1] = partnered[b2] = 1;
+        }
+      i = j;
+    }
+    int64_t isolated = 0, shared = 0;
+    for (size_t b = 0; b < bad.size(); ++b) {
+      const int32_t packed = faces[doubt[bad[b]]];
+      const int sides = m.adj[static_cast<size_t>(packed)] >= 0 ? 2 : 1;
+      (partnered[b] ? shared : isolated) += sides;
+    }
+    out[k] = isolated + (shared + 3) / 4;
+  }
+  return out;
+}
+
+}  // namespace
+
 MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   const auto t0 = std::chrono::steady_clock::now();
   MeshBound mb;
@@ -671,6 +775,7 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   face_points(m, faces[arg[0]], p);
   for (int k = 0; k < 3; ++k) mb.alpha_location[k] = (p[0][k] + p[1][k] + p[2][k]) / 3;
   for (uint8_t r : refined) mb.refined += r;
+  mb.below_at_least = count_bound(m, faces, cheap[0], cache[0], threads);
   mb.seconds = seconds_since(t0);
   return mb;
 }
@@ -845,6 +950,10 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
         << fixed(at(Measure::ScaledJacobian), "%.4f") << ", radius ratio ≤ " << fixed(at(Measure::RadiusRatio), "%.4f")
         << ", mean ratio ≤ " << fixed(at(Measure::MeanRatio), "%.4f") << ", equivolume skewness ≥ "
         << fixed(at(Measure::EquivolumeSkewness), "%.4f") << "\n";
+    const auto& c = d.bound.below_at_least;
+    if (c[0] >= 0)
+      o << "  and at least " << c[0] << " / " << c[1] << " / " << c[2]
+        << " tets below α 0.1 / 0.2 / 0.3 (their boundary triangles allow no better apex)\n";
   }
   for (size_t i = 0; i < d.poor.size() && i < max_list; ++i) {
     const PoorTet& p = d.poor[i];
@@ -881,7 +990,16 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
   // measures have none (diagnose.hpp, MeshBound::measure).
   for (int k = 0; k < kTetMeasureCount; ++k)
     o << (k ? ", " : "") << "\"" << kMeasures[k].key << "\": " << num(d.bound.measure[static_cast<size_t>(k)]);
-  o << "}, \"triangles_refined\": " << d.bound.refined << ", \"seconds\": " << num(d.bound.seconds) << "},\n";
+  o << "}, \"tets_below_at_least\": ";
+  if (d.bound.below_at_least[0] < 0) {
+    o << "null";
+  } else {
+    o << "{";
+    for (size_t k = 0; k < kCountThresholds.size(); ++k)
+      o << (k ? ", " : "") << "\"" << fixed(kCountThresholds[k], "%.1f") << "\": " << d.bound.below_at_least[k];
+    o << "}";
+  }
+  o << ", \"triangles_refined\": " << d.bound.refined << ", \"seconds\": " << num(d.bound.seconds) << "},\n";
   o << pad << "\"seconds\": " << num(d.seconds) << ",\n";
   o << pad << "\"tets\": [";
   const size_t n = max_list ? std::min(max_list, d.poor.size()) : d.poor.size();

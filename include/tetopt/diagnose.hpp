@@ -132,8 +132,25 @@ struct MeshBound {
   /// is below every triangle's, alpha is that bound and this its angle.
   double alpha_wedge_deg = NAN;
   int64_t refined = 0;            ///< triangles searched in full (all objectives)
+  /// The fewest tets below alpha kCountThresholds[k] that any mesh keeping
+  /// the constrained triangles has (-1: not computed).  Each side of a kept
+  /// triangle that has tets is a face of some tet there; when the
+  /// triangle's best apex is below the threshold (a "bad" triangle, best
+  /// alpha + 1e-4 below it, the search's tolerance), so is that tet.  Two
+  /// faces of one tet always share an edge, so a bad triangle sharing no
+  /// edge with another bad one needs a tet of its own on each side, and
+  /// the others at least one tet per four sides (two bad triangles count as
+  /// sharing an edge only when each one's far vertex lies on a side of the
+  /// other that has tets, as faces of one tet must): the count is
+  ///   sum over isolated bad triangles of their sides
+  ///   + ceil(sides of the other bad triangles / 4).
+  /// A lower bound on the count below the threshold (issue 27: the count of
+  /// tets below 0.2 against a peer that may change the boundary).
+  std::array<int64_t, 3> below_at_least{-1, -1, -1};
   double seconds = 0;
 };
+/// The thresholds of MeshBound::below_at_least (the quality report's bands).
+inline constexpr std::array<double, 3> kCountThresholds{0.1, 0.2, 0.3};
 
 /// Computes the mesh-wide bound.  Requires m's topology.
 /// all_measures: also the bounds of sine_min, scaled Jacobian, radius ratio,

@@ -5,7 +5,10 @@
 #include <random>
 
 #include "tetopt/diagnose.hpp"
+#include "needle_box.hpp"
+#include "tetopt/conventions.hpp"
 #include "tetopt/generate.hpp"
+#include "tetopt/improve.hpp"
 #include "tetopt/invariants.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/measures.hpp"
@@ -425,4 +428,63 @@ TEST(Diagnose, WedgeLockInTheDiagnosisAndTheBound) {
   const MeshBound plain = mesh_bound(m);
   EXPECT_GT(plain.alpha, d.bound.alpha);
   EXPECT_NE(format_diagnosis(d).find("meeting at"), std::string::npos);
+}
+
+// The count bound (MeshBound::below_at_least).  A needle box: every bad
+// triangle lies on the plane z = 0, so no two can be faces of one tet (each
+// one's far vertex lies on the other's plane) and the bound is the number of
+// bottom triangles whose best apex is below each threshold, counted here
+// from best_apex directly.  It holds for the mesh itself and for the mesh
+// after improve(), which keeps those triangles.
+TEST(Diagnose, CountBoundOnCoplanarNeedles) {
+  int moved = 0;
+  TetMesh m = tetopt_test::needle_box(6, 2, 3, &moved);
+  ASSERT_GT(moved, 2);
+  ASSERT_TRUE(build_topology(m).ok());
+  std::array<int64_t, 3> expect{0, 0, 0};
+  for (int32_t t = 0; t < m.nt(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      if (m.adj[4 * static_cast<size_t>(t) + f] >= 0) continue;
+      const int32_t* v = m.tet(t);
+      const double *a = m.point(v[kFaceVertex[f][0]]), *b = m.point(v[kFaceVertex[f][1]]),
+                   *c = m.point(v[kFaceVertex[f][2]]);
+      if (a[2] != 0 || b[2] != 0 || c[2] != 0) continue;
+      const double best = best_apex(a, b, c).value;
+      for (size_t k = 0; k < 3; ++k) expect[k] += best < kCountThresholds[k] - 1e-4 ? 1 : 0;
+    }
+  ASSERT_GT(expect[2], 0);  // the needles are bad at 0.3
+  const MeshBound mb = mesh_bound(m, 2, false);
+  for (size_t k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    EXPECT_EQ(mb.below_at_least[k], expect[k]);
+    int64_t below = 0;
+    for (int32_t t = 0; t < m.nt(); ++t) below += tet_alpha(m, t) < kCountThresholds[k];
+    EXPECT_LE(mb.below_at_least[k], below);
+  }
+  ImproveOptions o;
+  o.mode = ImproveMode::Best;
+  ImproveReport r;
+  ASSERT_TRUE(improve(m, o, r).ok());
+  for (size_t k = 0; k < 3; ++k) {
+    int64_t below = 0;
+    for (int32_t t = 0; t < m.nt(); ++t) below += tet_alpha(m, t) < kCountThresholds[k];
+    EXPECT_LE(mb.below_at_least[k], below) << k;
+  }
+  const Diagnosis d = diagnose(m, {0.3, true});
+  EXPECT_EQ(d.bound.below_at_least, mb.below_at_least);
+  EXPECT_NE(format_diagnosis(d).find("and at least " + std::to_string(expect[0]) + " / "), std::string::npos);
+  EXPECT_NE(diagnosis_to_json(d).find("\"tets_below_at_least\": {\"0.1\": " + std::to_string(expect[0])),
+            std::string::npos);
+}
+
+// A lone needle tet: its four faces are all bad and pairwise faces of one
+// tet (each far vertex on the side of the tet), so one tet may carry them
+// all: the bound is 1, the tet itself.  Counting each bad triangle apart
+// would claim 4, more than this very mesh has.
+TEST(Diagnose, CountBoundLetsOneTetCarryItsBadFaces) {
+  const double p[4][3] = {{0, 0, 0}, {1, 0, 0}, {0.5, 0.004, 0}, {0.5, 0.002, 0.003}};
+  TetMesh m = single_tet(p);
+  const MeshBound mb = mesh_bound(m, 1, false);
+  ASSERT_LT(mb.alpha, 0.1);
+  EXPECT_EQ(mb.below_at_least, (std::array<int64_t, 3>{1, 1, 1}));
 }
