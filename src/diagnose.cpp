@@ -457,6 +457,11 @@ double edge_dihedral_deg(const double* p, const double* q, const double* r, cons
 }  // namespace
 
 double wedge_best_alpha(const double* p, const double* q, const double* r, const double* s) {
+  const double* w[3] = {s, nullptr, nullptr};
+  return wedges_best_alpha(p, q, r, w);
+}
+
+double wedges_best_alpha(const double* p, const double* q, const double* r, const double* const s[3]) {
   const Frame f(p, q, r);
   if (f.degenerate) return 0;
   auto loc = [&](const double* w) {
@@ -465,25 +470,43 @@ double wedge_best_alpha(const double* p, const double* q, const double* r, const
                 (d[0] * f.e2[0] + d[1] * f.e2[1] + d[2] * f.e2[2]) / f.scale,
                 (d[0] * f.n[0] + d[1] * f.n[1] + d[2] * f.n[2]) / f.scale};
   };
-  // alpha is symmetric under the reflection through (p, q, r)'s plane, which
-  // ApexMeasure folds onto z > 0: mirror s there too.
-  const Vec3 lp = loc(p), lq = loc(q), lr = loc(r);
-  Vec3 ls = loc(s);
-  if (ls[2] < 0) ls[2] = -ls[2];
-  // The plane of (p, q, s): the apex must stay on r's side of it.
-  const Vec3 u{lq[0] - lp[0], lq[1] - lp[1], lq[2] - lp[2]}, v{ls[0] - lp[0], ls[1] - lp[1], ls[2] - lp[2]};
-  const Vec3 n2{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-  auto side = [&](const Vec3& x) { return (x[0] - lp[0]) * n2[0] + (x[1] - lp[1]) * n2[1] + (x[2] - lp[2]) * n2[2]; };
-  const double sr = side(lr);
-  if (!(sr != 0)) return 0;
+  const Vec3 lv[3] = {loc(p), loc(q), loc(r)};
+  // Edge e = (v[e], v[e+1]) with s[e]: the apex must stay on the third
+  // vertex's side of the plane (v[e], v[e+1], s[e]).  alpha is symmetric
+  // under the reflection through (p, q, r)'s plane, which ApexMeasure folds
+  // onto z > 0: each s is mirrored there too (they all lie on the domain's
+  // side of (p, q, r), so mirroring keeps them on one side).
+  struct Plane {
+    Vec3 o, n;
+    double sign;
+    Vec3 ls, u;
+    int e;
+  };
+  std::vector<Plane> planes;
+  for (int e = 0; e < 3; ++e) {
+    if (!s[e]) continue;
+    Vec3 ls = loc(s[e]);
+    if (ls[2] < 0) ls[2] = -ls[2];
+    const Vec3& a = lv[e];
+    const Vec3& b = lv[(e + 1) % 3];
+    const Vec3& c = lv[(e + 2) % 3];
+    const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{ls[0] - a[0], ls[1] - a[1], ls[2] - a[2]};
+    const Vec3 n{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    const double sc = (c[0] - a[0]) * n[0] + (c[1] - a[1]) * n[1] + (c[2] - a[2]) * n[2];
+    if (!(sc != 0)) return 0;
+    planes.push_back({a, n, sc > 0 ? 1.0 : -1.0, ls, u, e});
+  }
   const ApexMeasure g0{f, ApexObjective::Alpha};
   const double tol = 1e-12;
   auto g = [&](const Vec3& x) {
-    if (!(x[2] >= 0) || side(x) * sr < -tol) return -std::numeric_limits<double>::infinity();
+    if (!(x[2] >= 0)) return -std::numeric_limits<double>::infinity();
+    for (const Plane& pl : planes)
+      if (((x[0] - pl.o[0]) * pl.n[0] + (x[1] - pl.o[1]) * pl.n[1] + (x[2] - pl.o[2]) * pl.n[2]) * pl.sign < -tol)
+        return -std::numeric_limits<double>::infinity();
     return g0(x);
   };
   std::vector<std::pair<double, Vec3>> starts;
-  starts.push_back({g(ls), ls});
+  for (const Plane& pl : planes) starts.push_back({g(pl.ls), pl.ls});
   for (const Vec3& c : candidates(f)) starts.push_back({g(c), c});
   const double x0 = std::min(0.0, f.cx) - 0.3, x1 = std::max(f.bx, f.cx) + 0.3;
   const double y0 = -0.5, y1 = f.cy + 0.6;
@@ -494,15 +517,19 @@ double wedge_best_alpha(const double* p, const double* q, const double* r, const
         const Vec3 x{x0 + (x1 - x0) * i / (kN - 1), y0 + (y1 - y0) * j / (kN - 1), 0.01 + 1.19 * k / (kN - 1)};
         starts.push_back({g(x), x});
       }
-  // Points of the wedge near the edge (p, q) at every depth: the search box
-  // of a thin wedge holds few grid points.
-  for (int i = 1; i < kN; ++i)
-    for (int j = 1; j < kN; ++j) {
-      const double a = static_cast<double>(i) / kN, b = static_cast<double>(j) / kN;
-      Vec3 x{lp[0] + a * u[0] + b * (lr[0] - lp[0] + ls[0] - lp[0]) / 2, lp[1] + a * u[1] + b * (lr[1] - lp[1] + ls[1] - lp[1]) / 2,
-             lp[2] + a * u[2] + b * (lr[2] - lp[2] + ls[2] - lp[2]) / 2};
-      starts.push_back({g(x), x});
-    }
+  // Points of each wedge near its edge at every depth: the search box of a
+  // thin wedge holds few grid points.
+  for (const Plane& pl : planes) {
+    const Vec3& a = lv[pl.e];
+    const Vec3& c = lv[(pl.e + 2) % 3];
+    for (int i = 1; i < kN; ++i)
+      for (int j = 1; j < kN; ++j) {
+        const double ta = static_cast<double>(i) / kN, tb = static_cast<double>(j) / kN;
+        Vec3 x;
+        for (int k = 0; k < 3; ++k) x[k] = a[k] + ta * pl.u[k] + tb * (c[k] - a[k] + pl.ls[k] - a[k]) / 2;
+        starts.push_back({g(x), x});
+      }
+  }
   const size_t k = std::min<size_t>(6, starts.size());
   std::partial_sort(starts.begin(), starts.begin() + static_cast<std::ptrdiff_t>(k), starts.end(),
                     [](const auto& a, const auto& b) { return a.first > b.first; });
@@ -570,6 +597,66 @@ void achieved_on_face(const TetMesh& m, int32_t packed, double& a_best, double& 
   }
 }
 
+// Wedges at the edges of a face on the domain boundary (issue 27, item 2).
+// At an edge of boundary face `packed` where the domain's boundary turns
+// convex (the next boundary face around the edge, reached through the tets,
+// has its far vertex s on the domain's side of the face) by less than
+// kWedgeDeg, every mesh keeping both faces has its tet on this face inside
+// the wedge between them: that tet's dihedral angle at the edge lies within
+// the domain's.  s[e] is that far vertex for edge e of face_points' order
+// ((p0, p1), (p1, p2), (p2, p0)), nullptr elsewhere; the count is returned.
+// Faces with tets on both sides, non-manifold edges and reflex edges get
+// none (the bound stays the triangle's own there).  kWedgeDeg: wedges wider
+// than this never bind an apex good enough to matter (a regular tet's
+// dihedral angle is 70.5 degrees), and leaving them out only loosens the
+// bound.
+constexpr double kWedgeDeg = 150.0;
+
+int face_wedges(const TetMesh& m, int32_t packed, const double* s[3]) {
+  s[0] = s[1] = s[2] = nullptr;
+  if (m.adj[static_cast<size_t>(packed)] >= 0) return 0;
+  const int32_t t0 = packed >> 2;
+  const int f = packed & 3;
+  const int32_t* tv = m.tet(t0);
+  int32_t fv[3];
+  for (int k = 0; k < 3; ++k) fv[k] = tv[kFaceVertex[f][k]];
+  const double* apex = m.point(tv[f]);
+  const Sign inside = orient3d(m.point(fv[0]), m.point(fv[1]), m.point(fv[2]), apex);
+  if (inside == Sign::Zero) return 0;
+  int n = 0;
+  for (int e = 0; e < 3; ++e) {
+    const int32_t x = fv[e], y = fv[(e + 1) % 3], z = fv[(e + 2) % 3];
+    // Walk around edge (x, y) from t0: cross the face opposite `opp`, whose
+    // third vertex is `far`, until a face with no tet beyond.
+    int32_t cur = t0, opp = z, far = tv[f];
+    int32_t found = -1;
+    for (int step = 0; step < 256; ++step) {
+      const int32_t* cv = m.tet(cur);
+      int k = 0;
+      while (k < 4 && cv[k] != opp) ++k;
+      if (k == 4) break;
+      const int32_t nb = m.adj[4 * static_cast<size_t>(cur) + static_cast<size_t>(k)];
+      if (nb < 0) {
+        found = far;
+        break;
+      }
+      const int32_t next = nb >> 2;
+      if (next == t0) break;  // closed ring: not a boundary edge after all
+      const int32_t u = m.tet(next)[nb & 3];
+      opp = far;
+      far = u;
+      cur = next;
+    }
+    if (found < 0) continue;
+    const double* sp = m.point(found);
+    if (orient3d(m.point(fv[0]), m.point(fv[1]), m.point(fv[2]), sp) != inside) continue;  // reflex or flat
+    if (!(edge_dihedral_deg(m.point(x), m.point(y), m.point(z), sp) < kWedgeDeg)) continue;
+    s[e] = sp;
+    ++n;
+  }
+  return n;
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -582,7 +669,7 @@ namespace {
 // estimate of its best apex); cache: best alpha by triangle shape, as the
 // bound's own search filled it.
 std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces,
-                                   const std::vector<double>& cheap,
+                                   const std::vector<double>& cheap, const std::vector<uint8_t>& wedged,
                                    std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>& cache,
                                    int threads) {
   constexpr double kTol = 1e-4;  // the alpha search's exactness (diagnose.hpp)
@@ -597,7 +684,9 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
     const double* p[3];
     face_points(m, faces[doubt[j]], p);
     std::pair<int64_t, int64_t> key;
-    if (!shape_key(Frame(p[0], p[1], p[2]), key)) {
+    if (wedged[doubt[j]]) {
+      continue;  // searched inside its wedges below
+    } else if (!shape_key(Frame(p[0], p[1], p[2]), key)) {
       best[j] = 0;  // degenerate: no apex gives a positive alpha
       known[j] = 1;
     } else if (const auto it = cache.find(key); it != cache.end()) {
@@ -609,7 +698,13 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
     if (known[j]) return;
     const double* p[3];
     face_points(m, faces[doubt[j]], p);
-    best[j] = best_apex(p[0], p[1], p[2], ApexObjective::Alpha).value;
+    if (wedged[doubt[j]]) {
+      const double* s[3];
+      face_wedges(m, faces[doubt[j]], s);
+      best[j] = wedges_best_alpha(p[0], p[1], p[2], s);
+    } else {
+      best[j] = best_apex(p[0], p[1], p[2], ApexObjective::Alpha).value;
+    }
   });
   std::array<int64_t, 3> out{};
   for (size_t k = 0; k < kCountThresholds.size(); ++k) {
@@ -690,6 +785,10 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   const int nobj = all_measures ? kApexObjectives : 3;
   std::vector<double> cheap[kApexObjectives];
   for (int o = 0; o < nobj; ++o) cheap[o].resize(nf);
+  // Faces with a sharp boundary edge (face_wedges): their alpha is bounded
+  // with the apex inside the wedges, and only the achieved value (the tet
+  // there now, which lies inside them) is a cheap value that respects them.
+  std::vector<uint8_t> wedged(nf, 0);
   detail::parallel_for_each(static_cast<int64_t>(nf), threads, [&](int64_t i) {
     const double* p[3];
     face_points(m, faces[i], p);
@@ -697,7 +796,9 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
     achieved_on_face(m, faces[i], qa, qmin, qmax);
     double best[3];
     cheap_apex_values(p[0], p[1], p[2], best);
-    cheap[0][i] = std::max(qa, best[0]);
+    const double* s[3];
+    wedged[i] = face_wedges(m, faces[i], s) > 0;
+    cheap[0][i] = wedged[i] ? qa : std::max(qa, best[0]);
     cheap[1][i] = std::max(qmin, best[1]);
     cheap[2][i] = -std::min(qmax, best[2]);
     if (nobj > 3) {  // the other measures: the best candidate apex (achieved)
@@ -748,6 +849,14 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
       if (capped && examined++ >= kDihedralExamined) break;
       const double* p[3];
       face_points(m, faces[i], p);
+      if (o == 0 && wedged[i]) {
+        const double* s[3];
+        face_wedges(m, faces[i], s);
+        const double v = std::max(cheap[o][i], wedges_best_alpha(p[0], p[1], p[2], s));
+        refined[i] = 1;
+        if (v < cur) { cur = v; arg[o] = i; }
+        continue;
+      }
       if (quick_score(p[0], p[1], p[2], obj) >= cur - tol) continue;
       std::pair<int64_t, int64_t> key;
       const bool keyed = shape_key(Frame(p[0], p[1], p[2]), key);
@@ -775,7 +884,7 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   face_points(m, faces[arg[0]], p);
   for (int k = 0; k < 3; ++k) mb.alpha_location[k] = (p[0][k] + p[1][k] + p[2][k]) / 3;
   for (uint8_t r : refined) mb.refined += r;
-  mb.below_at_least = count_bound(m, faces, cheap[0], cache[0], threads);
+  mb.below_at_least = count_bound(m, faces, cheap[0], wedged, cache[0], threads);
   mb.seconds = seconds_since(t0);
   return mb;
 }
@@ -827,12 +936,17 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
       const int32_t key = nb >= 0 ? std::min(packed, nb) : packed;
       auto it = face_best.find(key);
       double best;
+      const double* ws[3];
+      const bool wedge = face_wedges(m, packed, ws) > 0;
       if (it != face_best.end()) {
         best = it->second;
       } else {
         const double* fp[3];
         face_points(m, packed, fp);
-        if (cheap_apex_value(fp[0], fp[1], fp[2]) >= opt.threshold) {
+        if (wedge) {  // inside the wedges of its sharp edges (face_wedges)
+          best = wedges_best_alpha(fp[0], fp[1], fp[2], ws);
+          d.faces_searched++;
+        } else if (cheap_apex_value(fp[0], fp[1], fp[2]) >= opt.threshold) {
           best = NAN;  // an apex reaching the threshold exists: not a lock
         } else {
           std::pair<int64_t, int64_t> shape;
@@ -851,6 +965,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
       if (!std::isnan(best) && (std::isnan(p.best_alpha) || best < p.best_alpha)) {
         p.best_alpha = best;
         p.face = f;
+        p.wedged = wedge;
       }
     }
     // Two faces of t on the domain boundary (no tet beyond either): t is the
@@ -875,9 +990,10 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
             p.wedge_deg = edge_dihedral_deg(m.point(tv[pq[0]]), m.point(tv[pq[1]]), m.point(tv[f2]), m.point(tv[f1]));
           }
         }
-      if (!std::isnan(p.wedge_alpha) && (std::isnan(p.best_alpha) || p.wedge_alpha < p.best_alpha)) {
-        p.best_alpha = p.wedge_alpha;
+      if (!std::isnan(p.wedge_alpha) && (std::isnan(p.best_alpha) || p.wedge_alpha <= p.best_alpha + 1e-9)) {
+        p.best_alpha = std::min(p.best_alpha, p.wedge_alpha);
         p.face = p.wedge_face;
+        p.wedged = false;  // said with the angle instead
       } else {
         p.wedge_alpha = p.wedge_deg = NAN;  // no tighter than the triangle's own bound
         p.wedge_face = -1;
@@ -963,6 +1079,8 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
     if (p.cls == TetClass::LockedByTriangle && !std::isnan(p.wedge_alpha))
       o << " and the boundary face beside it, meeting at " << fixed(p.wedge_deg, "%.1f") << "° (best possible α = "
         << fixed(p.best_alpha, "%.4f") << ")";
+    else if (p.cls == TetClass::LockedByTriangle && p.wedged)
+      o << " and the sharp boundary edges around it (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
     else if (p.cls == TetClass::LockedByTriangle) o << " (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
     o << "\n";
   }

@@ -102,6 +102,12 @@ ApexResult best_apex(const double* a, const double* b, const double* c, ApexObje
 /// from the grid, the closed-form candidates, points of the wedge and s.
 double wedge_best_alpha(const double* p, const double* q, const double* r, const double* s);
 
+/// The same with a wedge at each edge of (p, q, r) that has one: s[0] for
+/// edge (p, q), s[1] for (q, r), s[2] for (r, p), nullptr for none; every
+/// s on the same side of (p, q, r).  The apex must lie in all the wedges.
+/// An estimate like best_apex's (achieved: some apex in them gives it).
+double wedges_best_alpha(const double* p, const double* q, const double* r, const double* const s[3]);
+
 /// The cheap estimate: the best objective value over a few closed-form apex
 /// candidates (achieved, hence <= best_apex for Alpha and MinDihedral, >= for
 /// MaxDihedral).
@@ -181,6 +187,9 @@ struct PoorTet {
   /// dihedral angle (degrees).  An estimate like best_apex's.
   double wedge_alpha = NAN, wedge_deg = NAN;
   int32_t wedge_face = -1;
+  /// best_alpha comes from a face on the domain boundary with sharp convex
+  /// edges, its apex kept inside the wedges there (wedges_best_alpha).
+  bool wedged = false;
   double centroid[3] = {0, 0, 0};
 };
 
