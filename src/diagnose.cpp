@@ -597,16 +597,18 @@ void achieved_on_face(const TetMesh& m, int32_t packed, double& a_best, double& 
   }
 }
 
-// Wedges at the edges of a face on the domain boundary (issue 27, item 2).
-// At an edge of boundary face `packed` where the domain's boundary turns
-// convex (the next boundary face around the edge, reached through the tets,
-// has its far vertex s on the domain's side of the face) by less than
-// kWedgeDeg, every mesh keeping both faces has its tet on this face inside
-// the wedge between them: that tet's dihedral angle at the edge lies within
-// the domain's.  s[e] is that far vertex for edge e of face_points' order
-// ((p0, p1), (p1, p2), (p2, p0)), nullptr elsewhere; the count is returned.
-// Faces with tets on both sides, non-manifold edges and reflex edges get
-// none (the bound stays the triangle's own there).  kWedgeDeg: wedges wider
+// Wedges at the edges of a constrained face, on the side of the tet of
+// `packed` (4t+f; issue 27, item 2).  Around each edge of the face, on that
+// side, the tets reach the next constrained face (domain boundary, region
+// interface or listed triangle), found by walking through them.  No tet of
+// any mesh keeping both faces crosses either, so the tet on this side of
+// the face lies inside the wedge between them: where that wedge is convex
+// (the next face's far vertex s lies on this side of the face) and narrower
+// than kWedgeDeg, its apex is on this face's side of the next face's plane.
+// s[e] is that far vertex for edge e of face_points' order ((p0, p1),
+// (p1, p2), (p2, p0)), nullptr elsewhere; the count is returned.
+// Non-manifold walks and reflex edges get none (the bound stays the
+// triangle's own there).  kWedgeDeg: wedges wider
 // than this never bind an apex good enough to matter (a regular tet's
 // dihedral angle is 70.5 degrees), and leaving them out only loosens the
 // bound.
@@ -614,7 +616,6 @@ constexpr double kWedgeDeg = 150.0;
 
 int face_wedges(const TetMesh& m, int32_t packed, const double* s[3]) {
   s[0] = s[1] = s[2] = nullptr;
-  if (m.adj[static_cast<size_t>(packed)] >= 0) return 0;
   const int32_t t0 = packed >> 2;
   const int f = packed & 3;
   const int32_t* tv = m.tet(t0);
@@ -636,8 +637,8 @@ int face_wedges(const TetMesh& m, int32_t packed, const double* s[3]) {
       while (k < 4 && cv[k] != opp) ++k;
       if (k == 4) break;
       const int32_t nb = m.adj[4 * static_cast<size_t>(cur) + static_cast<size_t>(k)];
-      if (nb < 0) {
-        found = far;
+      if (nb < 0 || (!m.face_mask.empty() && (m.face_mask[cur] & (1u << k)))) {
+        found = far;  // the next constrained face around the edge
         break;
       }
       const int32_t next = nb >> 2;
@@ -657,6 +658,49 @@ int face_wedges(const TetMesh& m, int32_t packed, const double* s[3]) {
   return n;
 }
 
+// A cheap achieved alpha of the tet on side `packed` of a constrained face:
+// the largest over that side's tet and the closed-form candidate apexes
+// that lie inside the side's wedges (face_wedges; every candidate when it
+// has none).  At most the side's best, so it may prune the full search.
+double side_cheap_alpha(const TetMesh& m, int32_t packed) {
+  const double* p[3];
+  face_points(m, packed, p);
+  double best = std::max(0.0, tet_alpha(m, packed >> 2));
+  const Frame f(p[0], p[1], p[2]);
+  if (f.degenerate) return best;
+  const double* s[3];
+  const int nw = face_wedges(m, packed, s);
+  // The side of the tet's apex, in the frame's normal direction.
+  const double* apex = m.point(m.tet(packed >> 2)[packed & 3]);
+  double dn = 0;
+  for (int k = 0; k < 3; ++k) dn += (apex[k] - f.origin[k]) * f.n[k];
+  const double sgn = dn < 0 ? -1.0 : 1.0;
+  double nrm[3][3], third[3];
+  for (int e = 0; e < 3; ++e) {
+    if (!s[e]) continue;
+    const double *a = p[e], *b = p[(e + 1) % 3], *c = p[(e + 2) % 3];
+    const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {s[e][0] - a[0], s[e][1] - a[1], s[e][2] - a[2]};
+    nrm[e][0] = u[1] * v[2] - u[2] * v[1];
+    nrm[e][1] = u[2] * v[0] - u[0] * v[2];
+    nrm[e][2] = u[0] * v[1] - u[1] * v[0];
+    third[e] = (c[0] - a[0]) * nrm[e][0] + (c[1] - a[1]) * nrm[e][1] + (c[2] - a[2]) * nrm[e][2];
+  }
+  for (const Vec3& c : candidates(f)) {
+    double w[3];
+    for (int k = 0; k < 3; ++k) w[k] = f.origin[k] + f.scale * (c[0] * f.e1[k] + c[1] * f.e2[k] + sgn * c[2] * f.n[k]);
+    bool inside = true;
+    for (int e = 0; e < 3 && inside && nw; ++e) {
+      if (!s[e]) continue;
+      const double* a = p[e];
+      const double val = (w[0] - a[0]) * nrm[e][0] + (w[1] - a[1]) * nrm[e][1] + (w[2] - a[2]) * nrm[e][2];
+      // Strictly inside, with a margin for rounding: the value is achieved.
+      inside = val * third[e] > 0 && std::fabs(val) > 1e-9 * std::fabs(third[e]);
+    }
+    if (inside) best = std::max(best, std::fabs(alpha(p[0], p[1], p[2], w)));
+  }
+  return best;
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -665,89 +709,93 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 namespace {
 
-// MeshBound::below_at_least.  cheap: each face's achieved alpha (a lower
-// estimate of its best apex); cache: best alpha by triangle shape, as the
+// The best alpha of the tet on one side of a constrained face: `side` is
+// the packed face (4t+f) of that side's tet t.  Inside the wedges of its
+// sharp edges on that side (face_wedges), else the triangle's own (cached
+// by shape when cache is given; no cache: thread-safe).
+double side_best(const TetMesh& m, int32_t side,
+                 std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>* cache) {
+  const double* p[3];
+  face_points(m, side, p);
+  const double* s[3];
+  if (face_wedges(m, side, s) > 0) return wedges_best_alpha(p[0], p[1], p[2], s);
+  std::pair<int64_t, int64_t> key;
+  if (!shape_key(Frame(p[0], p[1], p[2]), key)) return 0;  // degenerate
+  if (cache)
+    if (const auto it = cache->find(key); it != cache->end()) return it->second;
+  const double v = best_apex(p[0], p[1], p[2], ApexObjective::Alpha).value;
+  if (cache) cache->emplace(key, v);
+  return v;
+}
+
+// MeshBound::below_at_least.  cheap: each face's achieved alpha, at most
+// the best of each of its sides; cache: best alpha by triangle shape, as the
 // bound's own search filled it.
 std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces,
-                                   const std::vector<double>& cheap, const std::vector<uint8_t>& wedged,
+                                   const std::vector<double>& cheap,
                                    std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>& cache,
                                    int threads) {
   constexpr double kTol = 1e-4;  // the alpha search's exactness (diagnose.hpp)
   const double top = kCountThresholds.back();
-  // The triangles whose achieved value leaves them in doubt: searched in full.
-  std::vector<size_t> doubt;
-  for (size_t i = 0; i < faces.size(); ++i)
-    if (cheap[i] < top - kTol) doubt.push_back(i);
-  std::vector<double> best(doubt.size());
-  std::vector<uint8_t> known(doubt.size(), 0);
-  for (size_t j = 0; j < doubt.size(); ++j) {  // shapes already searched by the bound
-    const double* p[3];
-    face_points(m, faces[doubt[j]], p);
-    std::pair<int64_t, int64_t> key;
-    if (wedged[doubt[j]]) {
-      continue;  // searched inside its wedges below
-    } else if (!shape_key(Frame(p[0], p[1], p[2]), key)) {
-      best[j] = 0;  // degenerate: no apex gives a positive alpha
-      known[j] = 1;
-    } else if (const auto it = cache.find(key); it != cache.end()) {
-      best[j] = it->second;
-      known[j] = 1;
-    }
+  // The sides of the faces whose cheap value leaves them in doubt, each
+  // searched in full: a side is the packed face of the tet on it.
+  std::vector<int32_t> sides;
+  for (size_t i = 0; i < faces.size(); ++i) {
+    if (!(cheap[i] < top - kTol)) continue;
+    sides.push_back(faces[i]);
+    const int32_t nb = m.adj[static_cast<size_t>(faces[i])];
+    if (nb >= 0) sides.push_back(nb);
   }
-  detail::parallel_for_each(static_cast<int64_t>(doubt.size()), threads, [&](int64_t j) {
-    if (known[j]) return;
+  std::vector<double> best(sides.size(), -1);
+  for (size_t j = 0; j < sides.size(); ++j) {  // shapes already searched, serially
+    const double* s[3];
+    if (face_wedges(m, sides[j], s) > 0) continue;
     const double* p[3];
-    face_points(m, faces[doubt[j]], p);
-    if (wedged[doubt[j]]) {
-      const double* s[3];
-      face_wedges(m, faces[doubt[j]], s);
-      best[j] = wedges_best_alpha(p[0], p[1], p[2], s);
-    } else {
-      best[j] = best_apex(p[0], p[1], p[2], ApexObjective::Alpha).value;
-    }
+    face_points(m, sides[j], p);
+    std::pair<int64_t, int64_t> key;
+    if (!shape_key(Frame(p[0], p[1], p[2]), key)) best[j] = 0;
+    else if (const auto it = cache.find(key); it != cache.end()) best[j] = it->second;
+  }
+  detail::parallel_for_each(static_cast<int64_t>(sides.size()), threads, [&](int64_t j) {
+    if (best[j] < 0) best[j] = side_best(m, sides[j], nullptr);
   });
+  // Whether x lies strictly on side b's side of its triangle.
+  auto on_side = [&](int32_t b, const double* x) {
+    const int32_t* v = m.tet(b >> 2);
+    const int f = b & 3;
+    const double *a = m.point(v[kFaceVertex[f][0]]), *q = m.point(v[kFaceVertex[f][1]]),
+                 *r = m.point(v[kFaceVertex[f][2]]);
+    const Sign o = orient3d(a, q, r, x);
+    return o != Sign::Zero && o == orient3d(a, q, r, m.point(v[f]));
+  };
+  auto other_vertex = [&](int32_t b, int32_t x, int32_t y) {
+    const int32_t* v = m.tet(b >> 2);
+    for (int e = 0; e < 3; ++e) {
+      const int32_t w = v[kFaceVertex[b & 3][e]];
+      if (w != x && w != y) return w;
+    }
+    return int32_t{-1};
+  };
   std::array<int64_t, 3> out{};
   for (size_t k = 0; k < kCountThresholds.size(); ++k) {
     const double tau = kCountThresholds[k];
-    // The bad triangles' edges (sorted vertex pairs) with their triangle.
-    std::vector<size_t> bad;
-    for (size_t j = 0; j < doubt.size(); ++j)
-      if (std::max(best[j], cheap[doubt[j]]) < tau - kTol) bad.push_back(j);
+    std::vector<int32_t> bad;  // the bad sides
+    for (size_t j = 0; j < sides.size(); ++j)
+      if (best[j] < tau - kTol) bad.push_back(sides[j]);
+    // Their edges (sorted vertex pairs).
     std::vector<std::pair<std::pair<int32_t, int32_t>, size_t>> edges;
     edges.reserve(3 * bad.size());
     for (size_t b = 0; b < bad.size(); ++b) {
-      const int32_t packed = faces[doubt[bad[b]]];
-      const int32_t* v = m.tet(packed >> 2);
-      const int f = packed & 3;
+      const int32_t* v = m.tet(bad[b] >> 2);
+      const int f = bad[b] & 3;
       for (int e = 0; e < 3; ++e) {
         const int32_t x = v[kFaceVertex[f][e]], y = v[kFaceVertex[f][(e + 1) % 3]];
         edges.push_back({{std::min(x, y), std::max(x, y)}, b});
       }
     }
     std::sort(edges.begin(), edges.end());
-    // Whether point x lies strictly on a side of bad triangle b that has
-    // tets: either side of a two-sided one, else the side of its tet's apex.
-    auto on_a_side = [&](size_t b, const double* x) {
-      const int32_t packed = faces[doubt[bad[b]]];
-      const int32_t* v = m.tet(packed >> 2);
-      const int f = packed & 3;
-      const double *a = m.point(v[kFaceVertex[f][0]]), *q = m.point(v[kFaceVertex[f][1]]),
-                   *r = m.point(v[kFaceVertex[f][2]]);
-      const Sign s = orient3d(a, q, r, x);
-      if (s == Sign::Zero) return false;
-      return m.adj[static_cast<size_t>(packed)] >= 0 || s == orient3d(a, q, r, m.point(v[f]));
-    };
-    auto other_vertex = [&](size_t b, int32_t x, int32_t y) {
-      const int32_t packed = faces[doubt[bad[b]]];
-      const int32_t* v = m.tet(packed >> 2);
-      for (int e = 0; e < 3; ++e) {
-        const int32_t w = v[kFaceVertex[packed & 3][e]];
-        if (w != x && w != y) return w;
-      }
-      return int32_t{-1};
-    };
-    // Two bad triangles sharing an edge can be faces of one tet only when
-    // each one's far vertex lies on a side of the other that has tets.
+    // Two bad sides sharing an edge can be faces of one tet only when each
+    // one's far vertex lies on the other's side.
     std::vector<uint8_t> partnered(bad.size(), 0);
     for (size_t i = 0; i < edges.size();) {
       size_t j = i;
@@ -756,17 +804,14 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
       for (size_t p = i; p < j; ++p)
         for (size_t q = p + 1; q < j; ++q) {
           const size_t b1 = edges[p].second, b2 = edges[q].second;
-          if (on_a_side(b1, m.point(other_vertex(b2, x, y))) && on_a_side(b2, m.point(other_vertex(b1, x, y))))
+          if (on_side(bad[b1], m.point(other_vertex(bad[b2], x, y))) &&
+              on_side(bad[b2], m.point(other_vertex(bad[b1], x, y))))
             partnered[b1] = partnered[b2] = 1;
         }
       i = j;
     }
     int64_t isolated = 0, shared = 0;
-    for (size_t b = 0; b < bad.size(); ++b) {
-      const int32_t packed = faces[doubt[bad[b]]];
-      const int sides = m.adj[static_cast<size_t>(packed)] >= 0 ? 2 : 1;
-      (partnered[b] ? shared : isolated) += sides;
-    }
+    for (size_t b = 0; b < bad.size(); ++b) (partnered[b] ? shared : isolated) += 1;
     out[k] = isolated + (shared + 3) / 4;
   }
   return out;
@@ -796,9 +841,18 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
     achieved_on_face(m, faces[i], qa, qmin, qmax);
     double best[3];
     cheap_apex_values(p[0], p[1], p[2], best);
-    const double* s[3];
-    wedged[i] = face_wedges(m, faces[i], s) > 0;
-    cheap[0][i] = wedged[i] ? qa : std::max(qa, best[0]);
+    // Each side of the face (the tet on it): its wedges, its achieved alpha.
+    const int32_t nb = m.adj[static_cast<size_t>(faces[i])];
+    for (const int32_t side : {faces[i], nb}) {
+      const double* s[3];
+      if (side >= 0 && face_wedges(m, side, s) > 0) wedged[i] = 1;
+    }
+    if (wedged[i]) {
+      cheap[0][i] = side_cheap_alpha(m, faces[i]);
+      if (nb >= 0) cheap[0][i] = std::min(cheap[0][i], side_cheap_alpha(m, nb));
+    } else {
+      cheap[0][i] = std::max(qa, best[0]);
+    }
     cheap[1][i] = std::max(qmin, best[1]);
     cheap[2][i] = -std::min(qmax, best[2]);
     if (nobj > 3) {  // the other measures: the best candidate apex (achieved)
@@ -850,9 +904,10 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
       const double* p[3];
       face_points(m, faces[i], p);
       if (o == 0 && wedged[i]) {
-        const double* s[3];
-        face_wedges(m, faces[i], s);
-        const double v = std::max(cheap[o][i], wedges_best_alpha(p[0], p[1], p[2], s));
+        double found = side_best(m, faces[i], &cache[o]);
+        if (const int32_t nb = m.adj[static_cast<size_t>(faces[i])]; nb >= 0)
+          found = std::min(found, side_best(m, nb, &cache[o]));
+        const double v = std::max(cheap[o][i], found);
         refined[i] = 1;
         if (v < cur) { cur = v; arg[o] = i; }
         continue;
@@ -884,7 +939,7 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   face_points(m, faces[arg[0]], p);
   for (int k = 0; k < 3; ++k) mb.alpha_location[k] = (p[0][k] + p[1][k] + p[2][k]) / 3;
   for (uint8_t r : refined) mb.refined += r;
-  mb.below_at_least = count_bound(m, faces, cheap[0], wedged, cache[0], threads);
+  mb.below_at_least = count_bound(m, faces, cheap[0], cache[0], threads);
   mb.seconds = seconds_since(t0);
   return mb;
 }
@@ -933,11 +988,13 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
       p.constrained_faces++;
       const int32_t packed = 4 * t + f;
       const int32_t nb = m.adj[static_cast<size_t>(packed)];
-      const int32_t key = nb >= 0 ? std::min(packed, nb) : packed;
-      auto it = face_best.find(key);
-      double best;
       const double* ws[3];
       const bool wedge = face_wedges(m, packed, ws) > 0;
+      // The face's own bound is the same on both sides; a side's wedges are
+      // its own, so a wedged face is keyed by this side.
+      const int32_t key = nb >= 0 && !wedge ? std::min(packed, nb) : packed;
+      auto it = face_best.find(key);
+      double best;
       if (it != face_best.end()) {
         best = it->second;
       } else {

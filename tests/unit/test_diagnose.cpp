@@ -210,6 +210,26 @@ TEST(Diagnose, SliverWithGoodFacesIsLockedByNeighbours) {
   EXPECT_EQ(sliver->constrained_faces, 0);
   EXPECT_EQ(sliver->cls, TetClass::LockedByNeighbours);
   EXPECT_TRUE(std::isnan(sliver->wedge_alpha));
+  // The sliver as a region of its own: its faces are interfaces, kept by
+  // every method, and on the sliver's side each edge's next kept face is
+  // another face of the sliver, at its tiny dihedral angle.  The wedges on
+  // that side leave only the sliver itself (nineteenth session: wedges walk
+  // to the next constrained face, interfaces included).
+  TetMesh r = m;
+  r.tet_ref[0] = 2;
+  ASSERT_TRUE(build_topology(r).ok());
+  const MeshBound rb = mesh_bound(r);
+  EXPECT_NEAR(rb.alpha, tet_alpha(r, 0), 1e-6);
+  EXPECT_LT(rb.alpha, 0.3);
+  const Diagnosis rd = diagnose(r, {0.3, true});
+  const PoorTet* rs = nullptr;
+  for (const PoorTet& x : rd.poor)
+    if (x.tet == 0) rs = &x;
+  ASSERT_NE(rs, nullptr);
+  EXPECT_EQ(rs->constrained_faces, 4);
+  EXPECT_EQ(rs->cls, TetClass::LockedByTriangle);
+  EXPECT_TRUE(rs->wedged);
+  EXPECT_NE(format_diagnosis(rd).find("sharp boundary edges around it"), std::string::npos);
 }
 
 TEST(Diagnose, JitteredBoxInteriorTetsAreImprovable) {
