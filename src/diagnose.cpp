@@ -439,6 +439,19 @@ ApexResult best_apex(const double* a, const double* b, const double* c, ApexObje
   return r;
 }
 
+double alpha_ceiling(const double* a, const double* b, const double* c) {
+  const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const double w[3] = {c[0] - b[0], c[1] - b[1], c[2] - b[2]};
+  const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  const double area = 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  const double lu = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+  const double lv = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  const double lw = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  const double l = std::max({lu, lv, lw}), per = lu + lv + lw;
+  if (!(l > 0)) return 0;
+  return 2 * std::sqrt(6.0) * area / (area + l * per / 2);
+}
+
 namespace {
 // The dihedral angle (degrees) at edge pq between triangles (p, q, r) and
 // (p, q, s): the angle between r - p and s - p projected across the edge.
@@ -746,8 +759,27 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
     const int32_t nb = m.adj[static_cast<size_t>(faces[i])];
     if (nb >= 0) sides.push_back(nb);
   }
-  std::vector<double> best(sides.size(), -1);
+  // A closed-form ceiling on each side's best (alpha_ceiling): a side whose
+  // ceiling and cheap value fall on the same side of every threshold needs
+  // no search (raw meshes have thousands of needles, each certainly bad).
+  std::vector<double> best(sides.size(), -1), lo(sides.size()), hi(sides.size());
+  for (size_t j = 0, i = 0; j < sides.size(); ++j) {
+    while (faces[i] != sides[j] && m.adj[static_cast<size_t>(faces[i])] != sides[j]) ++i;
+    lo[j] = cheap[i];
+    const double* p[3];
+    face_points(m, sides[j], p);
+    hi[j] = alpha_ceiling(p[0], p[1], p[2]);
+  }
+  auto decided = [&](size_t j) {
+    for (const double tau : kCountThresholds)
+      if (lo[j] < tau - kTol && !(hi[j] < tau - kTol)) return false;
+    return true;
+  };
   for (size_t j = 0; j < sides.size(); ++j) {  // shapes already searched, serially
+    if (decided(j)) {
+      best[j] = hi[j];  // below every threshold it is below; lo decides the rest
+      continue;
+    }
     const double* s[3];
     if (face_wedges(m, sides[j], s) > 0) continue;
     const double* p[3];
@@ -781,7 +813,7 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
     const double tau = kCountThresholds[k];
     std::vector<int32_t> bad;  // the bad sides
     for (size_t j = 0; j < sides.size(); ++j)
-      if (best[j] < tau - kTol) bad.push_back(sides[j]);
+      if (lo[j] < tau - kTol && best[j] < tau - kTol) bad.push_back(sides[j]);
     // Their edges (sorted vertex pairs).
     std::vector<std::pair<std::pair<int32_t, int32_t>, size_t>> edges;
     edges.reserve(3 * bad.size());

@@ -96,6 +96,16 @@ struct ApexResult {
 /// dihedral 0, max dihedral 180.
 ApexResult best_apex(const double* a, const double* b, const double* c, ApexObjective obj = ApexObjective::Alpha);
 
+/// A closed-form ceiling on the alpha of any tet on triangle (a, b, c): with
+/// apex height h over its plane, area A, perimeter P and longest edge L,
+/// the volume is A h / 3, the faces' areas sum to at least A + h P / 2
+/// (each side face's height over its edge is at least h) and the longest
+/// edge is at least max(L, h), so alpha <= 2 sqrt(6) A h / ((A + h P / 2)
+/// max(L, h)), largest at h = L: 2 sqrt(6) A / (A + L P / 2).  Loose for
+/// fair triangles (above 1), tight enough to call a needle bad without a
+/// search (the count floor, MeshBound::below_at_least).
+double alpha_ceiling(const double* a, const double* b, const double* c);
+
 /// The highest alpha of a tet on triangle (p, q, r) whose apex lies in the
 /// wedge between that triangle and triangle (p, q, s) (same side of
 /// (p, q, r) as s, same side of (p, q, s) as r): a search like best_apex's,

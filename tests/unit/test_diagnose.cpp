@@ -524,3 +524,25 @@ TEST(Diagnose, CountBoundLetsOneTetCarryItsBadFaces) {
   ASSERT_LT(mb.alpha, 0.1);
   EXPECT_EQ(mb.below_at_least, (std::array<int64_t, 3>{1, 1, 1}));
 }
+
+// alpha_ceiling never falls below the best apex's alpha (it is a ceiling),
+// on random triangles from fair to needles and caps, and is within a small
+// factor of it on needles (where the count floor relies on it).
+TEST(Diagnose, AlphaCeilingIsAboveTheBestApex) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int tight = 0;
+  for (int i = 0; i < 300; ++i) {
+    double a[3], b[3], c[3];
+    for (int k = 0; k < 3; ++k) { a[k] = u(rng); b[k] = u(rng); c[k] = u(rng); }
+    if (i % 3 == 1)  // a needle: c near the segment ab
+      for (int k = 0; k < 3; ++k) c[k] = 0.4 * a[k] + 0.6 * b[k] + 0.01 * u(rng);
+    if (i % 3 == 2)  // a cap: c near the midpoint, slightly off the line
+      for (int k = 0; k < 3; ++k) c[k] = 0.5 * (a[k] + b[k]) + 0.02 * u(rng);
+    const double best = best_apex(a, b, c).value;
+    const double ceil = alpha_ceiling(a, b, c);
+    EXPECT_GE(ceil, best - 1e-12) << i;
+    if (best < 0.1 && ceil < 4 * best) ++tight;
+  }
+  EXPECT_GT(tight, 50);  // needles and caps: the ceiling decides them
+}
