@@ -83,7 +83,8 @@ double dist(const double* a, const double* b) {
 // (Dapogny, Dobrzynski & Frey 2014, §4: h grows by at most log(hgrad) times
 // the distance, hgrad 1.3 by default, i.e. 0.26) gave on bib_0p25 (docs/
 // benchmarks.md, nineteenth session) 42k tets with mean alpha 0.648; 0.2:
-// 53k, 0.680; 0.15: 74k, 0.704 (MMG: 113k, 0.700); 0.1: 146k, 0.721.
+// 53k, 0.680; 0.15: 74k, 0.704 (MMG: 113k, 0.700); 0.1: 146k, 0.721 (the
+// first and last with an earlier variant: the graded size at every vertex).
 constexpr double kSizeGradation = 0.15;
 
 // The size field of RemeshOptions (see insert.hpp).

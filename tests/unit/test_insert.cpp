@@ -515,7 +515,8 @@ TEST(Remesh, SizeFieldOfARawMeshIsGradedAndNeverFinerThanTheSurface) {
         if (raw.vert_constrained[w] && in.free_near[w]) continue;
         const double* p = raw.point(v);
         const double* q = raw.point(w);
-        const double l = std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+        const double l =
+            std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
         EXPECT_LE(h[v], (h[w] + g * l) * (1 + eps)) << v << " " << w;
       }
   }
