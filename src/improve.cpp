@@ -478,7 +478,8 @@ class Driver {
   // field took 41-44 s (MMG 13 s; docs/benchmarks.md, nineteenth session).
   // Two flip passes instead of three, no multi-face removal or shells of at
   // most 8 in these flips saved no time that showed through the noise and
-  // left more tets below 0.3 (66-85 against 46).
+  // left more tets below 0.3 (66-85 against 46); smoothing before the flips
+  // instead of after took longer (17-21 s against 16-17 s).
   static constexpr int kRemeshSweeps = 8;
   static constexpr int kRemeshLoops = 2;
   static constexpr double kRemeshGamma = 0.5;

@@ -336,7 +336,8 @@ TEST(Remesh, SplitEdgeKeepsThePromiseAndRefusesConstrainedEdges) {
 }
 
 // remesh_pass on a box with no interior vertex: the long interior edges are
-// split toward the size field (the boundary triangles' edge lengths), the
+// split toward the size field (for these raw vertices the larger of the
+// boundary triangles' edge lengths and the graded mean edge length), the
 // remesher's own short edges collapsed, and the promise holds; the worst
 // alpha does not fall and the mean rises.  With --size-like sizes the mesh
 // is refined accordingly.
