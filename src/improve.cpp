@@ -471,7 +471,15 @@ class Driver {
   //   refusing split points within 0.6 h of a ring vertex: 3 sweeps left
   //   0.5916.
   // MMG 5 (mmg3d -optim -nosurf) on the same input: 112,561 tets, mean
-  // 0.7000, 13 s, with its boundary triangles changed.
+  // 0.7000, 13 s, with its boundary triangles changed.  The numbers above
+  // came with the surface's size at every raw vertex; with the graded size
+  // of a raw vertex (insert.hpp, size field) the same run gives 73,894 tets,
+  // worst 0.0396, mean 0.7042, 21 below 0.2 in 15-16 s where the former
+  // field took 41-44 s (MMG 13 s; docs/benchmarks.md, nineteenth session).
+  // Two flip passes instead of three, no multi-face removal or shells of at
+  // most 8 in these flips saved no time that showed through the noise and
+  // left more tets below 0.3 (66-85 against 46); smoothing before the flips
+  // instead of after took longer (17-21 s against 16-17 s).
   static constexpr int kRemeshSweeps = 8;
   static constexpr int kRemeshLoops = 2;
   static constexpr double kRemeshGamma = 0.5;

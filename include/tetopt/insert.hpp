@@ -81,8 +81,15 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o = {}, const LogFn& lo
 /// size everywhere); else a 1-component point field named "size" or "h"
 /// (values > 0); else, for a vertex on a constrained triangle, the mean
 /// length of the constrained triangles' edges at it (the surface's own
-/// size), and for any other vertex the mean length of its edges.  A vertex
-/// made by a split gets the mean of its edge's two sizes.  An edge ab is
+/// size), and for any other vertex the mean length of its edges.  A
+/// constrained vertex whose tets have no free vertex (a raw constrained
+/// Delaunay mesh, `tetgen -p`: nothing inside says how fine the volume
+/// should be) takes the larger of its surface size and MMG -optim's size
+/// (the mean length of all its edges, MMG3D_doSol) limited by a gradation:
+/// over the input's edges it grows by at most 0.15 per unit length from any
+/// vertex's (MMG's gradation, §4 of the paper, with a slope chosen on
+/// body_in_box: docs/benchmarks.md, nineteenth session).  A vertex made by a
+/// split gets the mean of its edge's two sizes.  An edge ab is
 /// long when |ab| > split_above * (h_a + h_b) / 2 and short when
 /// |ab| < collapse_below * (h_a + h_b) / 2.
 ///

@@ -336,7 +336,8 @@ TEST(Remesh, SplitEdgeKeepsThePromiseAndRefusesConstrainedEdges) {
 }
 
 // remesh_pass on a box with no interior vertex: the long interior edges are
-// split toward the size field (the boundary triangles' edge lengths), the
+// split toward the size field (for these raw vertices the larger of the
+// boundary triangles' edge lengths and the graded mean edge length), the
 // remesher's own short edges collapsed, and the promise holds; the worst
 // alpha does not fall and the mean rises.  With --size-like sizes the mesh
 // is refined accordingly.
@@ -413,4 +414,127 @@ TEST(Remesh, PassWorksWithNoFreeVertexAtAll) {
   ASSERT_TRUE(compact_vertices(m, st.removed_vertices).ok());
   ASSERT_TRUE(build_topology(m).ok());
   expect_promise(before, m, w0);
+}
+
+namespace {
+
+// The per-vertex sizes remesh_pass's size field starts from: the mean length
+// of the constrained triangles' edges at a vertex (0 when it is on none),
+// the mean length of every edge at it (each counted once per tet, as MMG3D
+// counts them), and whether some tet at it has a free vertex.
+struct InputSizes {
+  std::vector<double> surf, all;
+  std::vector<uint8_t> free_near;
+};
+
+InputSizes input_sizes(const TetMesh& m) {
+  InputSizes s;
+  std::vector<int32_t> nc(m.nv(), 0), na(m.nv(), 0);
+  s.surf.assign(m.nv(), 0.0);
+  s.all.assign(m.nv(), 0.0);
+  s.free_near.assign(m.nv(), 0);
+  auto len = [&](int32_t a, int32_t b) {
+    const double* p = m.point(a);
+    const double* q = m.point(b);
+    return std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+  };
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    bool any_free = false;
+    for (int i = 0; i < 4; ++i) any_free = any_free || !m.vert_constrained[v[i]];
+    for (int i = 0; i < 4; ++i) {
+      if (any_free) s.free_near[v[i]] = 1;
+      for (int j = i + 1; j < 4; ++j) {
+        const double l = len(v[i], v[j]);
+        s.all[v[i]] += l;
+        s.all[v[j]] += l;
+        ++na[v[i]];
+        ++na[v[j]];
+      }
+    }
+    for (int f = 0; f < 4; ++f) {
+      if (!((m.face_mask[t] >> f) & 1u)) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int32_t a = v[kFaceVertex[f][k]], b = v[kFaceVertex[f][(k + 1) % 3]];
+        const double l = len(a, b);
+        s.surf[a] += l;
+        s.surf[b] += l;
+        ++nc[a];
+        ++nc[b];
+      }
+    }
+  }
+  for (int32_t v = 0; v < m.nv(); ++v) {
+    if (nc[v]) s.surf[v] /= nc[v];
+    if (na[v]) s.all[v] /= na[v];
+  }
+  return s;
+}
+
+}  // namespace
+
+// The size field on a raw mesh (no interior vertex): a constrained vertex
+// whose tets have no free vertex takes the larger of its surface size and
+// the mean length of its edges graded by 0.15 per unit length (insert.hpp),
+// so it is never finer than the surface size, never coarser than its own
+// edges' mean where the graded size decides, and the graded sizes grow by
+// at most 0.15 |vw| along every edge.  On a mesh with interior vertices
+// every constrained vertex keeps its surface size (as before the gradation
+// existed).
+TEST(Remesh, SizeFieldOfARawMeshIsGradedAndNeverFinerThanTheSurface) {
+  constexpr double g = 0.15, eps = 1e-12;
+  TetMesh m = hollow_box();
+  const InputSizes in = input_sizes(m);
+  const int32_t nv = m.nv();
+  std::vector<double> h;
+  RemeshOptions ro;
+  ro.removable_from = nv;
+  ro.max_loops = 1;
+  ASSERT_TRUE(remesh_pass(m, h, ro).status.ok());
+  ASSERT_GE(h.size(), static_cast<size_t>(nv));
+  int coarser = 0;
+  for (int32_t v = 0; v < nv; ++v) {
+    if (!m.vert_constrained[v] || in.free_near[v]) continue;  // not raw
+    EXPECT_GE(h[v], in.surf[v] * (1 - eps)) << v;
+    if (!(h[v] > in.surf[v] * (1 + eps))) continue;
+    ++coarser;
+    EXPECT_LE(h[v], in.all[v] * (1 + eps)) << v;
+  }
+  EXPECT_GT(coarser, 0) << "the graded size never decided";
+  // The gradation along the input's edges (the remesher kept every input
+  // vertex and their coordinates, not every edge: checked on a copy).
+  const TetMesh raw = hollow_box();
+  for (int32_t t = 0; t < raw.nt(); ++t) {
+    const int32_t* tv = raw.tet(t);
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        const int32_t v = tv[i], w = tv[j];
+        if (v == w || !raw.vert_constrained[v] || in.free_near[v] || !(h[v] > in.surf[v] * (1 + eps))) continue;
+        // h[v] is graded there; the graded size at w is at most h[w] when
+        // w is raw or free (free: its edges' mean, where the gradation
+        // starts; raw: the larger of two).
+        if (raw.vert_constrained[w] && in.free_near[w]) continue;
+        const double* p = raw.point(v);
+        const double* q = raw.point(w);
+        const double l =
+            std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+        EXPECT_LE(h[v], (h[w] + g * l) * (1 + eps)) << v << " " << w;
+      }
+  }
+  // A mesh with interior vertices: constrained vertices keep the surface size.
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 4;
+  TetMesh box = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(box).ok());
+  const InputSizes ib = input_sizes(box);
+  const int32_t nb = box.nv();
+  std::vector<double> hb;
+  ASSERT_TRUE(remesh_pass(box, hb, ro).status.ok());
+  int kept = 0;
+  for (int32_t v = 0; v < nb; ++v) {
+    if (!box.vert_constrained[v] || !ib.free_near[v]) continue;
+    EXPECT_NEAR(hb[v], ib.surf[v], eps * ib.surf[v]) << v;
+    ++kept;
+  }
+  EXPECT_GT(kept, 0);
 }
