@@ -354,8 +354,10 @@ int cmd_improve(const std::vector<std::string>& args) {
       std::printf("  guards: off (--no-guard)\n");
     }
     if (rep.face_pass_on)
-      std::printf("  face pass (--objective openfoam): largest non-orthogonality %.2f -> %.2f degrees, %lld moves\n",
-                  rep.non_orthogonality_before, rep.non_orthogonality_after, static_cast<long long>(rep.face_moves));
+      std::printf("  face pass (--objective openfoam): largest non-orthogonality %.2f -> %.2f degrees, %lld moves, "
+                  "%lld face and %lld edge removals\n",
+                  rep.non_orthogonality_before, rep.non_orthogonality_after, static_cast<long long>(rep.face_moves),
+                  static_cast<long long>(rep.face_face_removals), static_cast<long long>(rep.face_edge_removals));
     std::printf("  time: smoothing %.3f s, topology %.3f s, invariant check %.3f s, end to end %.3f s\n",
                 rep.seconds_smooth, rep.seconds_topo, rep.seconds_check, total);
     // Input tets that untangling could not make positive stay as they were

@@ -49,11 +49,16 @@ struct FacePassOptions {
   /// Without a guard: star tets may not fall below this alpha (the mesh's
   /// worst alpha when the pass starts, so that the pass never costs alpha).
   double alpha_floor = 0;
+  /// Also remove faces by 2-3 flips, multi-face and edge removal (each
+  /// sweep, before the vertex moves); false: vertex moves only.
+  bool topology = true;
 };
 
 struct FacePassStats {
   double worst_before = 0, worst_after = 0;  ///< largest interior non-orthogonality (degrees)
   int64_t moves = 0;                          ///< committed vertex positions
+  int64_t face_removals = 0;                  ///< committed 2-3 flips and multi-face removals
+  int64_t edge_removals = 0;                  ///< committed edge removals (3-2, 4-4, n -> 2n-4)
   int64_t vertices_tried = 0;
   int sweeps = 0;
   double seconds = 0;
