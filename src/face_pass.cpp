@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <optional>
 #include <cmath>
 #include <vector>
 
@@ -167,6 +168,190 @@ bool same_face(const TetMesh& m, int32_t t, int f, const int32_t key[3]) {
   return s[0] == key[0] && s[1] == key[1] && s[2] == key[2];
 }
 
+// Whether tet (a, b, c, d) passes the guard, or the alpha floor without one.
+bool admitted(const FacePassOptions& o, const double* a, const double* b, const double* c, const double* d) {
+  return o.guard ? o.guard->admits(a, b, c, d) : alpha(a, b, c, d) >= o.alpha_floor;
+}
+
+// A tet as it would be after a planned operation: its vertices and, for
+// each face f, the vertex across it (-1 on the domain boundary).
+struct LocalTet {
+  int32_t v[4];
+  int32_t across[4];
+};
+
+double local_faces_max(const TetMesh& m, const std::vector<LocalTet>& ts) {
+  double w = 0;
+  for (const LocalTet& x : ts)
+    for (int f = 0; f < 4; ++f)
+      if (x.across[f] >= 0)
+        w = std::max(w, face_non_orthogonality(m.point(x.v[kFaceVertex[f][0]]), m.point(x.v[kFaceVertex[f][1]]),
+                                               m.point(x.v[kFaceVertex[f][2]]), m.point(x.v[f]),
+                                               m.point(x.across[f])));
+  return w;
+}
+
+// The tets around v reached from t0 (which holds v) through faces holding
+// v: v's star, read through the adjacency, which the editor keeps current
+// (the vertex->tet CSR is stale inside an editor session).
+void star_walk(const TetMesh& m, int32_t t0, int32_t v, std::vector<int32_t>& out) {
+  out.assign(1, t0);
+  for (size_t i = 0; i < out.size(); ++i) {
+    const int32_t s = out[i];
+    const int k = slot_in(m, s, v);
+    for (int g = 0; g < 4; ++g) {
+      if (g == k) continue;
+      const int32_t nb = m.adj[4 * static_cast<size_t>(s) + static_cast<size_t>(g)];
+      if (nb < 0) continue;
+      const int32_t u = nb >> 2;
+      if (std::find(out.begin(), out.end(), u) == out.end()) out.push_back(u);
+    }
+  }
+}
+
+// An operation whose only refused new tets share a free vertex v: a compass
+// search (as improve_vertex) for a position of v after the operation at
+// which every tet around v is exactly positive and admitted and the largest
+// non-orthogonality over the faces that the operation and the move change
+// (those of the new tets and of v's other tets) is below the largest over
+// the same faces before both (those of the replaced tets and of v's star).
+// The search first raises the worst alpha of the refused tets until none
+// is refused, then lowers the faces' largest value.  On success *x holds the
+// position and *value that largest value; m is left as it was.
+bool relocate_after(TetMesh& m, const TopoEditor::Planned& p, int32_t v, const FacePassOptions& o, double* x,
+                    double* value) {
+  auto in_cavity = [&](int32_t s) { return std::find(p.old_tets, p.old_tets + p.n_old, s) != p.old_tets + p.n_old; };
+  int32_t t0 = -1;
+  for (int i = 0; i < p.n_old && t0 < 0; ++i)
+    if (slot_in(m, p.old_tets[i], v) >= 0) t0 = p.old_tets[i];
+  if (t0 < 0) return false;
+  std::vector<int32_t> star;
+  star_walk(m, t0, v, star);
+  double was = 0;  // before: the replaced tets' faces and v's star's
+  for (int i = 0; i < p.n_old; ++i)
+    for (int f = 0; f < 4; ++f) {
+      const double y = face_value(m, p.old_tets[i], f);
+      if (!std::isnan(y)) was = std::max(was, y);
+    }
+  for (const int32_t s : star)
+    for (int f = 0; f < 4; ++f) {
+      const double y = face_value(m, s, f);
+      if (!std::isnan(y)) was = std::max(was, y);
+    }
+  // After: every new tet (the faces of those without v depend on v through
+  // their neighbours) and v's tets outside the cavity; `around` indexes the
+  // tets holding v, `bad` those refused now.
+  std::vector<LocalTet> after;
+  std::vector<int> around, bad;
+  for (int i = 0; i < p.n_new; ++i) {
+    LocalTet lt;
+    bool has_v = false;
+    for (int k = 0; k < 4; ++k) {
+      lt.v[k] = p.quad[i][k];
+      lt.across[k] = p.across[4 * static_cast<size_t>(i) + static_cast<size_t>(k)];
+      has_v = has_v || lt.v[k] == v;
+    }
+    if (has_v) around.push_back(static_cast<int>(after.size()));
+    after.push_back(lt);
+  }
+  for (const int32_t s : star) {
+    if (in_cavity(s)) continue;
+    LocalTet lt;
+    const int32_t* sv = m.tet(s);
+    for (int f = 0; f < 4; ++f) {
+      lt.v[f] = sv[f];
+      const int32_t nb = m.adj[4 * static_cast<size_t>(s) + static_cast<size_t>(f)];
+      lt.across[f] = nb < 0 ? -1 : m.tets[static_cast<size_t>(nb)];
+      if (nb >= 0 && in_cavity(nb >> 2)) {  // its neighbour there is a new tet now
+        int32_t key[3] = {sv[kFaceVertex[f][0]], sv[kFaceVertex[f][1]], sv[kFaceVertex[f][2]]};
+        std::sort(key, key + 3);
+        lt.across[f] = -1;
+        for (int i = 0; i < p.n_new && lt.across[f] < 0; ++i)
+          for (int g = 0; g < 4; ++g) {
+            int32_t k2[3] = {p.quad[i][kFaceVertex[g][0]], p.quad[i][kFaceVertex[g][1]], p.quad[i][kFaceVertex[g][2]]};
+            std::sort(k2, k2 + 3);
+            if (k2[0] == key[0] && k2[1] == key[1] && k2[2] == key[2]) {
+              lt.across[f] = p.quad[i][g];
+              break;
+            }
+          }
+        if (lt.across[f] < 0) return false;  // not the cavity's outer face: give up
+      }
+    }
+    around.push_back(static_cast<int>(after.size()));
+    after.push_back(lt);
+  }
+  // The search; refusals by the guard during it are not counted.
+  Guard::Counts scratch{};
+  std::optional<Guard::Deferred> quiet;
+  if (o.guard) quiet.emplace(scratch);
+  double* pv = m.point(v);
+  const double x0[3] = {pv[0], pv[1], pv[2]};
+  // key: (refused tets, -their worst alpha) while some are refused, then
+  // (0, the faces' largest value); smaller is better.
+  auto key_at = [&](const double* q, int& n_bad, double& k2) {
+    pv[0] = q[0]; pv[1] = q[1]; pv[2] = q[2];
+    n_bad = 0;
+    double worst_bad = INFINITY;
+    bool positive = true;
+    for (const int i : around) {
+      const int32_t* tv = after[static_cast<size_t>(i)].v;
+      const double *a = m.point(tv[0]), *b = m.point(tv[1]), *c = m.point(tv[2]), *d = m.point(tv[3]);
+      if (orient3d(a, b, c, d) != Sign::Positive) {
+        positive = false;
+        break;
+      }
+      if (!admitted(o, a, b, c, d)) {
+        ++n_bad;
+        worst_bad = std::min(worst_bad, alpha(a, b, c, d));
+      }
+    }
+    k2 = n_bad > 0 ? -worst_bad : local_faces_max(m, after);
+    pv[0] = x0[0]; pv[1] = x0[1]; pv[2] = x0[2];
+    return positive;
+  };
+  double len = 0;
+  int n = 0;
+  for (const int i : around)
+    for (int k = 0; k < 4; ++k) {
+      const int32_t u = after[static_cast<size_t>(i)].v[k];
+      if (u == v) continue;
+      const double* q = m.point(u);
+      len += std::sqrt((q[0] - x0[0]) * (q[0] - x0[0]) + (q[1] - x0[1]) * (q[1] - x0[1]) + (q[2] - x0[2]) * (q[2] - x0[2]));
+      ++n;
+    }
+  if (n == 0) return false;
+  double bp[3] = {x0[0], x0[1], x0[2]};
+  int best_bad;
+  double best_k2;
+  if (!key_at(bp, best_bad, best_k2)) return false;  // the editor found every new tet positive
+  double step = 0.1 * len / n;
+  const double min_step = 1e-4 * len / n;
+  int evals = 0;
+  while (step > min_step && evals < 300) {
+    bool moved = false;
+    for (int dir = 0; dir < 6 && !moved; ++dir) {
+      double q[3] = {bp[0], bp[1], bp[2]};
+      q[dir / 2] += (dir & 1) ? -step : step;
+      int nb;
+      double k2;
+      ++evals;
+      if (!key_at(q, nb, k2)) continue;
+      if (nb < best_bad || (nb == best_bad && k2 < best_k2 - 1e-12)) {
+        best_bad = nb;
+        best_k2 = k2;
+        bp[0] = q[0]; bp[1] = q[1]; bp[2] = q[2];
+        moved = true;
+      }
+    }
+    if (!moved) step *= 0.5;
+  }
+  if (best_bad > 0 || !(best_k2 < was - kOpMargin)) return false;
+  x[0] = bp[0]; x[1] = bp[1]; x[2] = bp[2];
+  *value = best_k2;
+  return true;
+}
+
 // The topological step of a sweep: for each face of `work` (packed 4t+f,
 // worst first) that is still there, the options that remove it (the 2-3
 // flip, the best multi-face removal through it, the removal of each of its
@@ -175,12 +360,12 @@ bool same_face(const TetMesh& m, int32_t t, int f, const int32_t key[3]) {
 // committed when that is below the largest over the faces of the tets it
 // replaces.  Returns the number committed; counts go to st.
 int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePassOptions& o, FacePassStats& st) {
+  // The editor checks validity (exact orientation, constrained faces,
+  // listed edges, the cavity's boundary) and chooses the new tets by their
+  // worst alpha (its dynamic programs); the guard or the alpha floor is
+  // applied here, so that an operation whose refused tets share a free
+  // vertex can be taken together with a move of that vertex.
   TopoOptions to;
-  to.guard = o.guard;
-  // The new tets are chosen by the worst alpha (the editor's dynamic
-  // programs); a floor at the mesh's worst alpha steers them away from
-  // triangulations the guard or the floor would refuse.
-  to.alpha_floor = o.guard ? (o.guard->on() ? o.guard->extreme(Measure::Alpha) : -1e300) : o.alpha_floor;
   to.threads = 1;
   to.rebuild_stars = true;
   std::vector<std::array<int32_t, 3>> keys(work.size());
@@ -230,12 +415,54 @@ int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePas
     };
     double best = INFINITY;
     int best_opt = -1;
+    int32_t best_v = -1;  // >= 0: the option needs v moved to best_x
+    double best_x[3] = {0, 0, 0};
     for (int k = 0; k < n_opts; ++k) {
       plan(opts[k], [&](const TopoEditor::Planned& p) {
         const double was = old_faces_max(m, p), now = new_faces_max(m, p);
-        if (now < was - kOpMargin && now < best) {
-          best = now;
-          best_opt = k;
+        if (!(now < was - kOpMargin)) return false;
+        // The free vertices common to every refused new tet (all of them
+        // when none is refused).
+        int32_t common[4];
+        int n_common = -1;
+        {
+          std::optional<Guard::Deferred> quiet;  // a refusal here is not yet an operation refused
+          Guard::Counts scratch{};
+          if (o.guard) quiet.emplace(scratch);
+          for (int ni = 0; ni < p.n_new; ++ni) {
+            const int32_t* q = p.quad[ni];
+            if (admitted(o, m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3]))) continue;
+            if (n_common < 0) {
+              n_common = 0;
+              for (int j = 0; j < 4; ++j)
+                if (!m.vert_constrained[q[j]]) common[n_common++] = q[j];
+            } else {
+              int kept = 0;
+              for (int j = 0; j < n_common; ++j)
+                if (std::find(q, q + 4, common[j]) != q + 4) common[kept++] = common[j];
+              n_common = kept;
+            }
+          }
+        }
+        if (n_common < 0) {  // every new tet admitted
+          if (now < best) {
+            best = now;
+            best_opt = k;
+            best_v = -1;
+          }
+          return false;
+        }
+        // In ascending id order (at most four: an insertion sort).
+        for (int j = 1; j < n_common && j < 4; ++j)
+          for (int l = j; l > 0 && common[l - 1] > common[l]; --l) std::swap(common[l - 1], common[l]);
+        for (int j = 0; j < n_common && j < 4; ++j) {
+          double x[3], value;
+          if (relocate_after(m, p, common[j], o, x, &value) && value < best) {
+            best = value;
+            best_opt = k;
+            best_v = common[j];
+            std::copy(x, x + 3, best_x);
+          }
         }
         return false;
       });
@@ -246,6 +473,11 @@ int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePas
       ++applied;
       if (opts[best_opt].kind < 2) ++st.face_removals;
       else ++st.edge_removals;
+      if (best_v >= 0) {
+        std::copy(best_x, best_x + 3, m.point(best_v));
+        ++st.moves;
+        ++st.combined;
+      }
     }
   }
   ed.finish();

@@ -59,6 +59,7 @@ struct FacePassStats {
   int64_t moves = 0;                          ///< committed vertex positions
   int64_t face_removals = 0;                  ///< committed 2-3 flips and multi-face removals
   int64_t edge_removals = 0;                  ///< committed edge removals (3-2, 4-4, n -> 2n-4)
+  int64_t combined = 0;  ///< removals taken with a move of a free vertex of their new tets (also counted above)
   int64_t vertices_tried = 0;
   int sweeps = 0;
   double seconds = 0;
