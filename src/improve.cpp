@@ -599,6 +599,7 @@ class Driver {
     r_.face_moves = fs.moves;
     r_.face_face_removals = fs.face_removals;
     r_.face_edge_removals = fs.edge_removals;
+    r_.face_combined = fs.combined;
     r_.seconds_face = fs.seconds;
     if (log_)
       log_(LogLevel::Debug, "face pass: largest non-orthogonality " + std::to_string(fs.worst_before) + " -> " +
@@ -880,7 +881,7 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   if (r.face_pass_on)
     j << "  \"face_pass\": {\"non_orthogonality_before\": " << num(r.non_orthogonality_before)
       << ", \"non_orthogonality_after\": " << num(r.non_orthogonality_after) << ", \"moves\": " << r.face_moves
-      << ", \"face_removals\": " << r.face_face_removals << ", \"edge_removals\": " << r.face_edge_removals
+      << ", \"face_removals\": " << r.face_face_removals << ", \"edge_removals\": " << r.face_edge_removals << ", \"combined\": " << r.face_combined
       << ", \"seconds\": " << num(r.seconds_face) << "},\n";
   j << "  \"guards\": {\"on\": " << (r.guard_on ? "true" : "false");
   if (r.guard_on) {

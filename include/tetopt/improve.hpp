@@ -142,10 +142,10 @@ struct ImproveReport {
   /// --objective openfoam: the face pass (face_pass.hpp) ran; the largest
   /// interior-face non-orthogonality (degrees) before and after it, its
   /// vertex moves, its face removals (2-3 flips and multi-face removals)
-  /// and edge removals.
+  /// and edge removals, and how many of those removals came with a move.
   bool face_pass_on = false;
   double non_orthogonality_before = 0, non_orthogonality_after = 0;
-  int64_t face_moves = 0, face_face_removals = 0, face_edge_removals = 0;
+  int64_t face_moves = 0, face_face_removals = 0, face_edge_removals = 0, face_combined = 0;
   double seconds_face = 0;
   bool invariants_checked = false, invariants_ok = false;
   std::string invariant_message;
