@@ -160,8 +160,8 @@ double new_faces_max(const TetMesh& m, const TopoEditor::Planned& p) {
 // Whether face f of live tet t still joins the vertices key (sorted) and
 // lies between two tets.
 bool same_face(const TetMesh& m, int32_t t, int f, const int32_t key[3]) {
-  if (t >= m.nt() || m.tets[4 * static_cast<size_t>(t)] < 0 || m.adj[4 * static_cast<size_t>(t) + static_cast<size_t>(f)] < 0)
-    return false;
+  const size_t k = 4 * static_cast<size_t>(t);
+  if (t >= m.nt() || m.tets[k] < 0 || m.adj[k + static_cast<size_t>(f)] < 0) return false;
   const int32_t* v = m.tet(t);
   int32_t s[3] = {v[kFaceVertex[f][0]], v[kFaceVertex[f][1]], v[kFaceVertex[f][2]]};
   std::sort(s, s + 3);
@@ -509,7 +509,8 @@ FacePassStats face_pass(TetMesh& m, const FacePassOptions& o) {
         if (nb < 0 || (nb >> 2) < t) continue;
         // The larger of the values seen from either side (they differ by
         // rounding), as max_non_orthogonality and the measures table take.
-        faces.push_back({std::max(face_value(m, t, f), face_value(m, nb >> 2, nb & 3)), 4 * static_cast<int64_t>(t) + f});
+        const double x = std::max(face_value(m, t, f), face_value(m, nb >> 2, nb & 3));
+        faces.push_back({x, 4 * static_cast<int64_t>(t) + f});
       }
     std::sort(faces.begin(), faces.end(), [](const auto& a, const auto& b) {
       return a.first > b.first || (a.first == b.first && a.second < b.second);
@@ -521,7 +522,8 @@ FacePassStats face_pass(TetMesh& m, const FacePassOptions& o) {
   // The faces worked on: within kBand of the largest, at least the kTop worst.
   auto worked = [&](double w) {
     std::vector<int64_t> ids;
-    for (size_t i = 0; i < faces.size() && (i < kTop || faces[i].first >= w - kBand); ++i) ids.push_back(faces[i].second);
+    for (size_t i = 0; i < faces.size() && (i < kTop || faces[i].first >= w - kBand); ++i)
+      ids.push_back(faces[i].second);
     return ids;
   };
   // Two phases: vertex moves alone until a sweep no longer lowers the
@@ -533,7 +535,10 @@ FacePassStats face_pass(TetMesh& m, const FacePassOptions& o) {
   bool topo_phase = false;
   int sweeps_in_phase = 0;
   while (!faces.empty() && sweeps_in_phase < o.sweeps) {
-    if (topo_phase) remove_faces(m, worked(worst), o, st), scan();
+    if (topo_phase) {
+      remove_faces(m, worked(worst), o, st);
+      scan();
+    }
     std::vector<int32_t> verts;
     for (size_t i = 0; i < faces.size() && (i < kTop || faces[i].first >= faces[0].first - kBand); ++i) {
       const int32_t t = static_cast<int32_t>(faces[i].second >> 2);
