@@ -6,6 +6,7 @@
 #include <chrono>
 #include <optional>
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include "tetopt/conventions.hpp"
@@ -359,7 +360,13 @@ bool relocate_after(TetMesh& m, const TopoEditor::Planned& p, int32_t v, const F
 // the face measure; the option whose new faces' largest value is lowest is
 // committed when that is below the largest over the faces of the tets it
 // replaces.  Returns the number committed; counts go to st.
-int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePassOptions& o, FacePassStats& st) {
+// With `diag`: plans the options of work's first face only, commits none,
+// and tallies them in *diag (FacePassStats::worst_*).
+struct Tally {
+  int lowering = 0, constrained_refused = 0;
+};
+int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePassOptions& o, FacePassStats& st,
+                     Tally* diag = nullptr) {
   // The editor checks validity (exact orientation, constrained faces,
   // listed edges, the cavity's boundary) and chooses the new tets by their
   // worst alpha (its dynamic programs); the guard or the alpha floor is
@@ -421,6 +428,8 @@ int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePas
       plan(opts[k], [&](const TopoEditor::Planned& p) {
         const double was = old_faces_max(m, p), now = new_faces_max(m, p);
         if (!(now < was - kOpMargin)) return false;
+        if (diag) ++diag->lowering;
+        bool constrained_refused = false;  // a refused new tet has four constrained vertices
         // The free vertices common to every refused new tet (all of them
         // when none is refused).
         int32_t common[4];
@@ -432,6 +441,8 @@ int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePas
           for (int ni = 0; ni < p.n_new; ++ni) {
             const int32_t* q = p.quad[ni];
             if (admitted(o, m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3]))) continue;
+            constrained_refused = constrained_refused || (m.vert_constrained[q[0]] && m.vert_constrained[q[1]] &&
+                                                          m.vert_constrained[q[2]] && m.vert_constrained[q[3]]);
             if (n_common < 0) {
               n_common = 0;
               for (int j = 0; j < 4; ++j)
@@ -444,6 +455,7 @@ int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePas
             }
           }
         }
+        if (diag && constrained_refused) ++diag->constrained_refused;
         if (n_common < 0) {  // every new tet admitted
           if (now < best) {
             best = now;
@@ -467,6 +479,7 @@ int64_t remove_faces(TetMesh& m, const std::vector<int64_t>& work, const FacePas
         return false;
       });
     }
+    if (diag) break;
     if (best_opt < 0) continue;
     // Planning is deterministic: the same option again, committed.
     if (plan(opts[best_opt], [](const TopoEditor::Planned&) { return true; }) == TopoResult::Applied) {
@@ -568,6 +581,36 @@ FacePassStats face_pass(TetMesh& m, const FacePassOptions& o) {
     sweeps_in_phase = 0;
   }
   st.worst_after = worst;
+  // Why the largest face stays (FacePassStats::worst_*).
+  if (!faces.empty()) {
+    const int32_t t = static_cast<int32_t>(faces[0].second >> 2);
+    const int f = static_cast<int>(faces[0].second & 3);
+    const int32_t nb = m.adj[4 * static_cast<size_t>(t) + static_cast<size_t>(f)];
+    const int32_t* v = m.tet(t);
+    const int32_t p = v[f], q = m.tets[static_cast<size_t>(nb)];
+    int n_free = 0, fr = -1;
+    for (int k = 0; k < 3; ++k)
+      if (!m.vert_constrained[v[kFaceVertex[f][k]]]) ++n_free, fr = k;
+    if (m.vert_constrained[p] && m.vert_constrained[q] && n_free <= 1) {
+      st.worst_move_floor = worst;
+      if (n_free == 1) {  // asin(|d.e| / (|d||e|)), e the constrained edge, d parallel to q - p
+        const double* a = m.point(v[kFaceVertex[f][(fr + 1) % 3]]);
+        const double* b = m.point(v[kFaceVertex[f][(fr + 2) % 3]]);
+        const double *pp = m.point(p), *pq = m.point(q);
+        const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double d[3] = {pq[0] - pp[0], pq[1] - pp[1], pq[2] - pp[2]};
+        const double c = std::fabs(e[0] * d[0] + e[1] * d[1] + e[2] * d[2]) /
+                         (std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) * std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+        st.worst_move_floor = std::asin(std::min(1.0, c)) * 180.0 / std::numbers::pi;
+      }
+    }
+    if (o.topology) {
+      Tally d;
+      remove_faces(m, {faces[0].second}, o, st, &d);
+      st.worst_lowering_options = d.lowering;
+      st.worst_constrained_refused = d.constrained_refused;
+    }
+  }
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return st;
 }

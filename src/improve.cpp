@@ -600,6 +600,9 @@ class Driver {
     r_.face_face_removals = fs.face_removals;
     r_.face_edge_removals = fs.edge_removals;
     r_.face_combined = fs.combined;
+    r_.face_worst_move_floor = fs.worst_move_floor;
+    r_.face_worst_lowering = fs.worst_lowering_options;
+    r_.face_worst_constrained_refused = fs.worst_constrained_refused;
     r_.seconds_face = fs.seconds;
     if (log_)
       log_(LogLevel::Debug, "face pass: largest non-orthogonality " + std::to_string(fs.worst_before) + " -> " +
@@ -882,6 +885,9 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
     j << "  \"face_pass\": {\"non_orthogonality_before\": " << num(r.non_orthogonality_before)
       << ", \"non_orthogonality_after\": " << num(r.non_orthogonality_after) << ", \"moves\": " << r.face_moves
       << ", \"face_removals\": " << r.face_face_removals << ", \"edge_removals\": " << r.face_edge_removals << ", \"combined\": " << r.face_combined
+      << ", \"worst_move_floor\": " << num(r.face_worst_move_floor)
+      << ", \"worst_lowering_options\": " << r.face_worst_lowering
+      << ", \"worst_constrained_refused\": " << r.face_worst_constrained_refused
       << ", \"seconds\": " << num(r.seconds_face) << "},\n";
   j << "  \"guards\": {\"on\": " << (r.guard_on ? "true" : "false");
   if (r.guard_on) {

@@ -92,6 +92,16 @@ struct FacePassStats {
   int64_t face_removals = 0;                  ///< committed 2-3 flips and multi-face removals
   int64_t edge_removals = 0;                  ///< committed edge removals (3-2, 4-4, n -> 2n-4)
   int64_t combined = 0;  ///< removals taken with a move of a free vertex of their new tets (also counted above)
+  /// Why the largest face stays, at the end: worst_move_floor >= 0 when
+  /// both its apexes and at least two of its vertices are constrained, so
+  /// that no vertex move takes it below that value (degrees; see above);
+  /// -1 otherwise.  With topology: of the operations of the topological
+  /// step on its two tets, how many would lower the largest value over the
+  /// faces they change (worst_lowering_options) and how many of those hold
+  /// a refused new tet (guard, or alpha_floor) with four constrained
+  /// vertices, which no move can rescue (worst_constrained_refused).
+  double worst_move_floor = -1;
+  int worst_lowering_options = 0, worst_constrained_refused = 0;
   int64_t vertices_tried = 0;
   int sweeps = 0;
   double seconds = 0;

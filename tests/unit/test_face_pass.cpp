@@ -80,6 +80,19 @@ TEST(FacePass, EdgeRemovalLowersAFaceVertexMovesCannotReach) {
     EXPECT_DOUBLE_EQ(max_non_orthogonality(w), before);
   }
   o.topology = true;
+  {
+    // With a floor above the worst alpha the 3-2 flip gives (0.26), the
+    // flip's tets (four constrained vertices each) are refused, and the
+    // diagnosis says so: no move can help the face either.
+    TetMesh w = m;
+    FacePassOptions high = o;
+    high.alpha_floor = 0.3;
+    const FacePassStats st = face_pass(w, high);
+    EXPECT_EQ(st.edge_removals + st.face_removals, 0);
+    EXPECT_DOUBLE_EQ(st.worst_move_floor, st.worst_after);
+    EXPECT_GE(st.worst_lowering_options, 1);
+    EXPECT_EQ(st.worst_constrained_refused, st.worst_lowering_options);
+  }
   const InvariantSnapshot snap = capture_invariants(m);
   const double alpha0 = worst_alpha(m);
   const FacePassStats st = face_pass(m, o);
@@ -92,6 +105,8 @@ TEST(FacePass, EdgeRemovalLowersAFaceVertexMovesCannotReach) {
   EXPECT_TRUE(s.ok()) << s.message;
   EXPECT_TRUE(nonpositive_tets(m).empty());
   EXPECT_GE(worst_alpha(m), alpha0);
+  EXPECT_DOUBLE_EQ(st.worst_move_floor, st.worst_after);  // (r0, r1, r2) between a and b: all constrained
+  EXPECT_EQ(st.worst_lowering_options, 0);
 }
 
 // The editor's judged operations commit exactly what the judge takes: a
