@@ -605,11 +605,19 @@ class Driver {
     r_.non_orthogonality_before = fs.worst_before;
     r_.non_orthogonality_after = fs.worst_after;
     r_.face_moves = fs.moves;
+    r_.face_face_removals = fs.face_removals;
+    r_.face_edge_removals = fs.edge_removals;
+    r_.face_combined = fs.combined;
+    r_.face_worst_move_floor = fs.worst_move_floor;
+    r_.face_worst_lowering = fs.worst_lowering_options;
+    r_.face_worst_constrained_refused = fs.worst_constrained_refused;
     r_.seconds_face = fs.seconds;
     if (log_)
       log_(LogLevel::Debug, "face pass: largest non-orthogonality " + std::to_string(fs.worst_before) + " -> " +
                                 std::to_string(fs.worst_after) + " degrees, " + std::to_string(fs.moves) +
-                                " moves in " + std::to_string(fs.sweeps) + " sweeps");
+                                " moves, " + std::to_string(fs.face_removals) + " face and " +
+                                std::to_string(fs.edge_removals) + " edge removals in " + std::to_string(fs.sweeps) +
+                                " sweeps");
   }
   // The guards' extremes are those of the mesh now (guard.hpp): the extremes
   // a round reached are not given back by a later round, the final dihedral
@@ -884,6 +892,10 @@ std::string report_to_json(const ImproveReport& r, const ImproveOptions& o, cons
   if (r.face_pass_on)
     j << "  \"face_pass\": {\"non_orthogonality_before\": " << num(r.non_orthogonality_before)
       << ", \"non_orthogonality_after\": " << num(r.non_orthogonality_after) << ", \"moves\": " << r.face_moves
+      << ", \"face_removals\": " << r.face_face_removals << ", \"edge_removals\": " << r.face_edge_removals << ", \"combined\": " << r.face_combined
+      << ", \"worst_move_floor\": " << num(r.face_worst_move_floor)
+      << ", \"worst_lowering_options\": " << r.face_worst_lowering
+      << ", \"worst_constrained_refused\": " << r.face_worst_constrained_refused
       << ", \"seconds\": " << num(r.seconds_face) << "},\n";
   j << "  \"guards\": {\"on\": " << (r.guard_on ? "true" : "false");
   if (r.guard_on) {

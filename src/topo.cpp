@@ -466,7 +466,7 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   // `floor` is refused anyway (policy, or a better option already found by
   // improve_tet), so triangles at or below it are never evaluated twice.
   double floor = bound;
-  if (strict || o_.must_improve) floor = std::max(floor, c.old_min + o_.margin);
+  if ((strict || o_.must_improve) && !judged_) floor = std::max(floor, c.old_min + o_.margin);
   for (int i = 0; i + 1 < n; ++i) q[i][i + 1] = kInf;
   for (int len = 2; len < n; ++len)
     for (int i = 0; i + len < n; ++i) {
@@ -493,7 +493,8 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   c.new_min = q[0][n - 1];
   if (c.new_min == -kInf) return floor > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
   if (!(c.new_min > 0)) return TopoResult::Inverted;
-  if (c.new_min <= c.old_min + o_.margin && (strict || o_.must_improve || c.new_min < c.old_min - o_.worsen_bound))
+  if (!judged_ && c.new_min <= c.old_min + o_.margin &&
+      (strict || o_.must_improve || c.new_min < c.old_min - o_.worsen_bound))
     return TopoResult::NotImproved;
   // Emit the optimal triangulation.
   c.n_new = 0;
@@ -650,7 +651,8 @@ TopoResult TopoEditor::plan_multi(int32_t t, int lf, int max_tris, bool strict, 
   }
   // A disk without interior vertices: otherwise a vertex would vanish.
   if (nverts != nc + 2) return TopoResult::NotApplicable;
-  if (c.new_min <= c.old_min + o_.margin && (strict || o_.must_improve || c.new_min < c.old_min - o_.worsen_bound))
+  if (!judged_ && c.new_min <= c.old_min + o_.margin &&
+      (strict || o_.must_improve || c.new_min < c.old_min - o_.worsen_bound))
     return TopoResult::NotImproved;
   c.n_new = 0;
   for (int i = 0; i < nc; ++i) {
@@ -681,7 +683,7 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
     if (k4) worst_k4 = std::min(worst_k4, c.new_alpha[i]);
   }
   c.new_min = worst;
-  bool ok = c.new_min > c.old_min + o_.margin || (any_valid_ && c.new_min > 0) || restoring_ ||
+  bool ok = c.new_min > c.old_min + o_.margin || ((any_valid_ || judged_) && c.new_min > 0) || restoring_ ||
             (accept_ && c.new_min >= accept_.floor_for(c.old_min) && c.new_min > 0);
   // May-worsen policy (Liu et al. §4): fewer kind-4 tets, and only tets that
   // smoothing can still fix (kind < 4) may fall below the old worst alpha.
@@ -925,6 +927,40 @@ TopoResult TopoEditor::remove_multi_face(int32_t t, int lf) {
   TopoResult r = plan_multi(t, lf, o_.max_shell - 2, false, *cand_, nullptr);
   if (r == TopoResult::Applied) commit(*cand_);
   return r;
+}
+
+TopoResult TopoEditor::judge_plan(TopoResult r, const Judge& judge) {
+  judged_ = false;
+  if (r != TopoResult::Applied) return r;
+  const Candidate& c = *cand_;
+  Planned p;
+  p.n_old = c.n_old;
+  p.n_new = c.n_new;
+  p.old_tets = c.old_tets;
+  p.quad = c.quad;
+  p.across.resize(4 * static_cast<size_t>(c.n_new));
+  for (int i = 0; i < 4 * c.n_new; ++i) {
+    const int32_t l = c.link[i];
+    if (l >= 0) {
+      p.across[i] = c.quad[l / 4][l % 4];
+    } else {
+      const int32_t nb = c.outer_nb[-1 - l];
+      p.across[i] = nb < 0 ? -1 : m_.tets[nb];
+    }
+  }
+  if (!judge(p)) return TopoResult::NotImproved;
+  commit(c);
+  return TopoResult::Applied;
+}
+
+TopoResult TopoEditor::remove_edge_judged(int32_t t, int le, const Judge& judge) {
+  judged_ = true;
+  return judge_plan(plan_edge(t, le, 0, false, *cand_, -kInf, nullptr), judge);
+}
+
+TopoResult TopoEditor::remove_face_judged(int32_t t, int lf, int max_faces, const Judge& judge) {
+  judged_ = true;
+  return judge_plan(plan_multi(t, lf, max_faces, false, *cand_, nullptr), judge);
 }
 
 // A new free vertex at x, appended (existing ids unchanged): vert_ref 0 when

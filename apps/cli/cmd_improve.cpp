@@ -354,8 +354,20 @@ int cmd_improve(const std::vector<std::string>& args) {
       std::printf("  guards: off (--no-guard)\n");
     }
     if (rep.face_pass_on)
-      std::printf("  face pass (--objective openfoam): largest non-orthogonality %.2f -> %.2f degrees, %lld moves\n",
-                  rep.non_orthogonality_before, rep.non_orthogonality_after, static_cast<long long>(rep.face_moves));
+      std::printf("  face pass (--objective openfoam): largest non-orthogonality %.2f -> %.2f degrees, %lld moves, "
+                  "%lld face and %lld edge removals\n",
+                  rep.non_orthogonality_before, rep.non_orthogonality_after, static_cast<long long>(rep.face_moves),
+                  static_cast<long long>(rep.face_face_removals), static_cast<long long>(rep.face_edge_removals));
+    // Why the largest face stays, when the pass can say (face_pass.hpp).
+    if (rep.face_pass_on && rep.face_worst_move_floor >= 0)
+      std::printf("    its largest face: no vertex move takes it below %.2f degrees (its apexes and two or three of its "
+                  "vertices are constrained)\n",
+                  rep.face_worst_move_floor);
+    if (rep.face_pass_on && rep.face_worst_lowering > 0 &&
+        rep.face_worst_constrained_refused == rep.face_worst_lowering)
+      std::printf("    its largest face: each of the %d operations that would lower it creates a tet of four "
+                  "constrained vertices that %s\n",
+                  rep.face_worst_lowering, rep.guard_on ? "the guards refuse" : "the alpha floor refuses");
     std::printf("  time: smoothing %.3f s, topology %.3f s, invariant check %.3f s, end to end %.3f s\n",
                 rep.seconds_smooth, rep.seconds_topo, rep.seconds_check, total);
     // Input tets that untangling could not make positive stay as they were

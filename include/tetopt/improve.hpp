@@ -140,10 +140,16 @@ struct ImproveReport {
   double seconds_check = 0;  ///< invariant snapshot + proof
   double seconds_polish = 0; ///< the mean polish (guarded best mode), also counted in smooth / topo
   /// --objective openfoam: the face pass (face_pass.hpp) ran; the largest
-  /// interior-face non-orthogonality (degrees) before and after it, its moves.
+  /// interior-face non-orthogonality (degrees) before and after it, its
+  /// vertex moves, its face removals (2-3 flips and multi-face removals)
+  /// and edge removals, and how many of those removals came with a move.
   bool face_pass_on = false;
   double non_orthogonality_before = 0, non_orthogonality_after = 0;
-  int64_t face_moves = 0;
+  int64_t face_moves = 0, face_face_removals = 0, face_edge_removals = 0, face_combined = 0;
+  /// Why the largest face stays (FacePassStats::worst_move_floor,
+  /// worst_lowering_options, worst_constrained_refused).
+  double face_worst_move_floor = -1;
+  int face_worst_lowering = 0, face_worst_constrained_refused = 0;
   double seconds_face = 0;
   bool invariants_checked = false, invariants_ok = false;
   std::string invariant_message;

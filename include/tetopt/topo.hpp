@@ -62,6 +62,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -238,6 +239,32 @@ class TopoEditor {
   /// apex b = the neighbour's opposite vertex); 2-3 when one face is best.
   TopoResult remove_multi_face(int32_t t, int lf);
 
+  /// A planned operation as remove_edge_judged / remove_face_judged show it
+  /// to the caller that decides whether to commit it: the cavity's tets
+  /// (old_tets, n_old ids, still in the mesh) and the new tets (quad: n_new
+  /// x 4 vertex ids, positively oriented); across[4i+f] is the vertex
+  /// opposite face f of new tet i (kFaceVertex[f]) across that face, in a
+  /// new tet or in the tet outside the cavity, -1 on the domain boundary.
+  struct Planned {
+    int n_old = 0, n_new = 0;
+    const int32_t* old_tets = nullptr;
+    const int32_t (*quad)[4] = nullptr;
+    std::vector<int32_t> across;
+  };
+  /// Returns whether the caller takes the planned operation.
+  using Judge = std::function<bool(const Planned&)>;
+  /// Edge removal of local edge le of t (3-2, 4-4, n -> 2n-4), and the
+  /// removal of face lf of t (2-3 when max_faces is 1, otherwise the best
+  /// multi-face removal of at most max_faces faces containing it), for a
+  /// caller with its own measure (the face pass, face_pass.hpp): the new
+  /// tets are chosen as remove_edge / remove_multi_face choose them (best
+  /// worst quality) and checked as they are (exact orientation, the guard,
+  /// alpha_floor, constrained faces and listed edges), but need not improve
+  /// the quality; the operation is committed when judge says so
+  /// (NotImproved when it does not).
+  TopoResult remove_edge_judged(int32_t t, int le, const Judge& judge);
+  TopoResult remove_face_judged(int32_t t, int lf, int max_faces, const Judge& judge);
+
   /// Vertex insertion (Klingner & Shewchuk 2007): the cavity is t plus its
   /// neighbours across unconstrained faces of the same region; a new free
   /// vertex (vert_ref 0, appended: existing ids unchanged) is placed by a
@@ -380,6 +407,8 @@ class TopoEditor {
   void commit(const Candidate& c, int32_t* slots = nullptr, bool counted = true);
   void count(const Candidate& c);
   bool any_valid_ = false;            // finish_plan accepts every valid option (improve_tet_pair)
+  bool judged_ = false;               // the caller judges: every valid, admitted option (remove_*_judged)
+  TopoResult judge_plan(TopoResult r, const Judge& judge);
   bool restoring_ = false;            // finish_plan plans an undo: no policy, no orientation test
   std::vector<Candidate> trial_;      // improve_tet_pair's first operations (allocated on first use)
   std::vector<int32_t> around_;       // improve_tet_pair's tets near t
