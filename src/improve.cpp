@@ -479,7 +479,13 @@ class Driver {
   // Two flip passes instead of three, no multi-face removal or shells of at
   // most 8 in these flips saved no time that showed through the noise and
   // left more tets below 0.3 (66-85 against 46); smoothing before the flips
-  // instead of after took longer (17-21 s against 16-17 s).
+  // instead of after took longer (17-21 s against 16-17 s).  Flips and
+  // smoothing only on the tets below 0.5 with a vertex of a tet the sweep
+  // made visited 0.3-14% fewer tets (nearly every poor tet is next to a
+  // split or collapse): no faster, 9 more tets below 0.2; one or two flip
+  // passes 2-10% faster with a lower worst alpha; a split search of 24
+  // evaluations instead of 96 left mean 0.6637 (docs/benchmarks.md,
+  // nineteenth session).
   static constexpr int kRemeshSweeps = 8;
   static constexpr int kRemeshLoops = 2;
   static constexpr double kRemeshGamma = 0.5;
