@@ -673,16 +673,15 @@ int face_wedges(const TetMesh& m, int32_t packed, const double* s[3]) {
 
 // A cheap achieved alpha of the tet on side `packed` of a constrained face:
 // the largest over that side's tet and the closed-form candidate apexes
-// that lie inside the side's wedges (face_wedges; every candidate when it
+// that lie inside the side's wedges s (face_wedges; every candidate when it
 // has none).  At most the side's best, so it may prune the full search.
-double side_cheap_alpha(const TetMesh& m, int32_t packed) {
+double side_cheap_alpha(const TetMesh& m, int32_t packed, const double* const s[3]) {
   const double* p[3];
   face_points(m, packed, p);
   double best = std::max(0.0, tet_alpha(m, packed >> 2));
   const Frame f(p[0], p[1], p[2]);
   if (f.degenerate) return best;
-  const double* s[3];
-  const int nw = face_wedges(m, packed, s);
+  const bool nw = s[0] || s[1] || s[2];
   // The side of the tet's apex, in the frame's normal direction.
   const double* apex = m.point(m.tet(packed >> 2)[packed & 3]);
   double dn = 0;
@@ -753,19 +752,21 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
   // The sides of the faces whose cheap value leaves them in doubt, each
   // searched in full: a side is the packed face of the tet on it.
   std::vector<int32_t> sides;
+  std::vector<double> lo;  // each side's face's cheap value: at most its best
   for (size_t i = 0; i < faces.size(); ++i) {
     if (!(cheap[i] < top - kTol)) continue;
-    sides.push_back(faces[i]);
     const int32_t nb = m.adj[static_cast<size_t>(faces[i])];
-    if (nb >= 0) sides.push_back(nb);
+    for (const int32_t side : {faces[i], nb})
+      if (side >= 0) {
+        sides.push_back(side);
+        lo.push_back(cheap[i]);
+      }
   }
   // A closed-form ceiling on each side's best (alpha_ceiling): a side whose
   // ceiling and cheap value fall on the same side of every threshold needs
   // no search (raw meshes have thousands of needles, each certainly bad).
-  std::vector<double> best(sides.size(), -1), lo(sides.size()), hi(sides.size());
-  for (size_t j = 0, i = 0; j < sides.size(); ++j) {
-    while (faces[i] != sides[j] && m.adj[static_cast<size_t>(faces[i])] != sides[j]) ++i;
-    lo[j] = cheap[i];
+  std::vector<double> best(sides.size(), -1), hi(sides.size());
+  for (size_t j = 0; j < sides.size(); ++j) {
     const double* p[3];
     face_points(m, sides[j], p);
     hi[j] = alpha_ceiling(p[0], p[1], p[2]);
@@ -874,14 +875,13 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
     double best[3];
     cheap_apex_values(p[0], p[1], p[2], best);
     // Each side of the face (the tet on it): its wedges, its achieved alpha.
-    const int32_t nb = m.adj[static_cast<size_t>(faces[i])];
-    for (const int32_t side : {faces[i], nb}) {
-      const double* s[3];
-      if (side >= 0 && face_wedges(m, side, s) > 0) wedged[i] = 1;
-    }
+    const int32_t side[2] = {faces[i], m.adj[static_cast<size_t>(faces[i])]};
+    const double* s[2][3] = {{nullptr, nullptr, nullptr}, {nullptr, nullptr, nullptr}};
+    for (int k = 0; k < 2; ++k)
+      if (side[k] >= 0 && face_wedges(m, side[k], s[k]) > 0) wedged[i] = 1;
     if (wedged[i]) {
-      cheap[0][i] = side_cheap_alpha(m, faces[i]);
-      if (nb >= 0) cheap[0][i] = std::min(cheap[0][i], side_cheap_alpha(m, nb));
+      cheap[0][i] = side_cheap_alpha(m, side[0], s[0]);
+      if (side[1] >= 0) cheap[0][i] = std::min(cheap[0][i], side_cheap_alpha(m, side[1], s[1]));
     } else {
       cheap[0][i] = std::max(qa, best[0]);
     }

@@ -20,8 +20,7 @@ namespace tetopt {
 InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   InsertStats st;
-  if (m.adj.size() != m.tets.size() || m.tet_kind.size() != m.tets.size() / 4 ||
-      m.vert_constrained.size() != static_cast<size_t>(m.nv())) {
+  if (!topology_current(m)) {
     st.status = build_topology(m);
     if (!st.status) return st;
   }
@@ -189,8 +188,7 @@ struct EdgeRef {
 RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   RemeshStats st;
-  if (m.adj.size() != m.tets.size() || m.tet_kind.size() != m.tets.size() / 4 ||
-      m.vert_constrained.size() != static_cast<size_t>(m.nv())) {
+  if (!topology_current(m)) {
     st.status = build_topology(m);
     if (!st.status) return st;
   }

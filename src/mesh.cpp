@@ -626,6 +626,12 @@ void classify(TetMesh& m, int threads) {
   });
 }
 
+bool topology_current(const TetMesh& m) {
+  const size_t nt = m.tets.size() / 4;
+  return m.adj.size() == m.tets.size() && m.face_mask.size() == nt && m.tet_kind.size() == nt &&
+         m.vert_constrained.size() == static_cast<size_t>(m.nv());
+}
+
 Status build_topology(TetMesh& m, int threads) {
   build_vertex_tets(m, threads);
   if (!adjacency_from_stars(m, m.vt_offsets, m.vt_tets, threads)) {

@@ -446,14 +446,7 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   c.size = n;
   c.ref = ref;
   c.entity = ent;
-  c.n_old = n;
-  c.old_min = kInf;
-  c.k4_old = 0;
-  for (int i = 0; i < n; ++i) {
-    c.old_tets[i] = shell[i];
-    c.old_min = std::min(c.old_min, cached_alpha(shell[i]));
-    c.k4_old += m_.tet_kind[shell[i]] == 4;
-  }
+  set_old_tets(c, shell, n);
 
   // Polygon DP (Klincsek 1980; Shewchuk 2002): q[i][j] is the best worst
   // alpha over triangulations of the sub-polygon r_i .. r_j; triangle
@@ -1155,14 +1148,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     if (pick < 0) break;
     old[nold++] = face_nb[pick];
   }
-  c.n_old = best_nold;
-  c.old_min = kInf;
-  c.k4_old = 0;
-  for (int i = 0; i < c.n_old; ++i) {
-    c.old_tets[i] = best_old[i];
-    c.old_min = std::min(c.old_min, cached_alpha(c.old_tets[i]));
-    c.k4_old += m_.tet_kind[c.old_tets[i]] == 4;
-  }
+  set_old_tets(c, best_old, best_nold);
   nf = best_nf;
   std::copy(&best_face[0][0], &best_face[0][0] + 3 * nf, &face[0][0]);
   const double* bx = best_x;
@@ -1312,6 +1298,17 @@ TopoResult TopoEditor::contract(int32_t t, int32_t only_v, int32_t only_w) {
   return TopoResult::Applied;
 }
 
+void TopoEditor::set_old_tets(Candidate& c, const int32_t* tets, int n) const {
+  c.n_old = n;
+  c.old_min = kInf;
+  c.k4_old = 0;
+  for (int i = 0; i < n; ++i) {
+    c.old_tets[i] = tets[i];
+    c.old_min = std::min(c.old_min, cached_alpha(tets[i]));
+    c.k4_old += m_.tet_kind[tets[i]] == 4;
+  }
+}
+
 TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, double wa) {
   if (o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
   int32_t a, b, ring[kMaxShell + 2], shell[kMaxShell + 1];
@@ -1322,14 +1319,7 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
   c.size = 1;
   c.ref = m_.tet_ref[t];
   c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
-  c.n_old = n;
-  c.old_min = kInf;
-  c.k4_old = 0;
-  for (int i = 0; i < n; ++i) {
-    c.old_tets[i] = shell[i];
-    c.old_min = std::min(c.old_min, cached_alpha(shell[i]));
-    c.k4_old += m_.tet_kind[shell[i]] == 4;
-  }
+  set_old_tets(c, shell, n);
   // The shell (a, b, r_i, r_i+1) becomes (p, b, r_i, r_i+1) and
   // (a, p, r_i, r_i+1): the cone from p over the shell's outer faces, valid
   // for any p that sees them all (exact orient3d below).
@@ -1830,12 +1820,6 @@ TopoResult remove_multi_face(TetMesh& m, int32_t t, int lf, const TopoOptions& o
 }
 
 namespace {
-
-bool topology_current(const TetMesh& m) {
-  const size_t nt = m.tets.size() / 4;
-  return m.adj.size() == m.tets.size() && m.face_mask.size() == nt && m.tet_kind.size() == nt &&
-         m.vert_constrained.size() == static_cast<size_t>(m.nv());
-}
 
 enum class PassKind { AllBoundary, Quality };
 

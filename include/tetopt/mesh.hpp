@@ -184,6 +184,11 @@ Status orient_consistently(TetMesh& m, bool repair, OrientationReport* r = nullp
 /// reported, the first in serial order) is the same for every count.
 Status build_topology(TetMesh& m, int threads = 1);
 
+/// Whether m's derived topology (adjacency, face masks, kinds, constrained
+/// vertices) has the sizes build_topology gives it: the passes rebuild it
+/// when not.
+bool topology_current(const TetMesh& m);
+
 /// build_topology after the tets from `first_new` on were replaced by others
 /// that fit the kept ones: the faces between kept and replaced tets are faces
 /// of the new tets, and the constrained faces and vertices are those of

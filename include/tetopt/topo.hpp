@@ -391,6 +391,9 @@ class TopoEditor {
   // refuses an edge on a constrained face, a listed edge or a boundary edge.
   TopoResult gather_shell(int32_t t, int le, int32_t& a, int32_t& b, int32_t* ring, int32_t* shell, int& n,
                           std::vector<int32_t>* reads) const;
+  // The tets an operation replaces: c's old tets, their worst measure and
+  // their kind-4 count.
+  void set_old_tets(Candidate& c, const int32_t* tets, int n) const;
   // insert_vertex / split_edge: append a free vertex at x (its id), take it back.
   int32_t push_vertex(const double* x);
   void pop_vertex();
