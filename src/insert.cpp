@@ -14,6 +14,7 @@
 #include "tetopt/quality.hpp"
 #include "tetopt/topo.hpp"
 #include "detail/edge_key.hpp"
+#include "detail/vec3.hpp"
 
 namespace tetopt {
 
@@ -213,7 +214,9 @@ RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions&
       for (int le = 0; le < 6; ++le) {
         const int32_t a = tv[kEdgeVertex[le][0]], b = tv[kEdgeVertex[le][1]];
         const double l = dist(m.point(a), m.point(b)) * 2 / (h[a] + h[b]);
-        if (longer ? l > o.split_above : l < o.collapse_below) {
+        const double above =
+            m.vert_constrained[a] && m.vert_constrained[b] ? std::min(o.split_above, o.split_spanning) : o.split_above;
+        if (longer ? l > above : l < o.collapse_below) {
           if (!longer && (m.vert_constrained[a] || a < o.removable_from) &&
               (m.vert_constrained[b] || b < o.removable_from))
             continue;
@@ -281,6 +284,86 @@ RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions&
   st.removed_vertices = ed.removed();
   ed.finish();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return st;
+}
+
+RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions& o, const LogFn& log) {
+  const auto t0 = std::chrono::steady_clock::now();
+  RefineStats st;
+  if (!topology_current(m)) {
+    st.status = build_topology(m);
+    if (!st.status) return st;
+  }
+  ensure_vertex_tets(m);
+  if (h.size() != static_cast<size_t>(m.nv())) size_field(m, o.size, h);
+  TopoOptions to;
+  to.objective = o.objective;
+  to.guard = o.guard;
+  to.stop = o.stop;
+  TopoEditor ed(m, to);
+  Acceptance acc;
+  acc.on = true;
+  acc.floor = ed.min_cached();
+  acc.cap = o.cap;
+  acc.ratio = o.ratio;
+  struct Item {
+    double ratio;
+    int32_t t;
+    int32_t v[4];
+    bool operator<(const Item& y) const { return ratio != y.ratio ? ratio < y.ratio : t > y.t; }
+  };
+  std::priority_queue<Item> heap;
+  // Circumradius over the tet's mean size, and the circumcentre.
+  auto ratio_of = [&](int32_t t, double* cc) {
+    const int32_t* tv = m.tet(t);
+    double r2 = 0;
+    if (!detail::circumsphere(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3]), cc, r2)) return 0.0;
+    return std::sqrt(r2) * 4 / (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
+  };
+  auto consider = [&](int32_t t) {
+    double cc[3];
+    const double r = ratio_of(t, cc);
+    if (r > o.radius_above) {
+      const int32_t* tv = m.tet(t);
+      heap.push({r, t, {tv[0], tv[1], tv[2], tv[3]}});
+    }
+  };
+  for (int32_t t = 0; t < m.nt(); ++t)
+    if (ed.alive(t)) consider(t);
+  st.large = static_cast<int64_t>(heap.size());
+  // A runaway guard only: refinement ends when no tet is too large.
+  const int64_t max_inserts = 8 * static_cast<int64_t>(m.nt()) + 10000;
+  std::vector<int32_t> made;
+  int64_t why[8] = {};
+  auto stopped = [&] { return o.stop && o.stop->load(std::memory_order_relaxed); };
+  while (!heap.empty() && st.inserted < max_inserts && !stopped()) {
+    const Item it = heap.top();
+    heap.pop();
+    if (!ed.alive(it.t)) continue;
+    const int32_t* tv = m.tet(it.t);
+    if (tv[0] != it.v[0] || tv[1] != it.v[1] || tv[2] != it.v[2] || tv[3] != it.v[3]) continue;
+    double cc[3];
+    ratio_of(it.t, cc);
+    const double hn = 0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
+    ++st.tried;
+    const TopoResult rr = ed.insert_point(it.t, cc, acc, o.min_dist * hn, &made);
+    ++why[static_cast<int>(rr)];
+    if (rr != TopoResult::Applied) continue;
+    h.push_back(hn);
+    ++st.inserted;
+    for (int32_t n : made) consider(n);
+  }
+  ed.finish();
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (log) {
+    std::string w;
+    for (int k = 0; k < 7; ++k) w += std::string(" ") + to_string(static_cast<TopoResult>(k)) + " " + std::to_string(why[k]);
+    log(LogLevel::Debug, "refine: the tries ended" + w);
+  }
+  if (log)
+    log(LogLevel::Info, "refine: " + std::to_string(st.large) + " tets too large for the size field, " +
+                            std::to_string(st.inserted) + " circumcentres inserted of " + std::to_string(st.tried) +
+                            " tried, " + std::to_string(m.nt()) + " tets, " + std::to_string(st.seconds) + " s");
   return st;
 }
 

@@ -1385,6 +1385,167 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
   return TopoResult::Applied;
 }
 
+namespace {
+// det(b - a, c - a, x - a) in floating point (the walk's guide; the exact
+// orient3d decides validity).
+double orient_approx(const double* a, const double* b, const double* c, const double* x) {
+  const double ba[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double ca[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const double xa[3] = {x[0] - a[0], x[1] - a[1], x[2] - a[2]};
+  double n[3];
+  detail::cross(ba, ca, n);
+  return detail::dot(n, xa);
+}
+}  // namespace
+
+TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance& acc, double min_dist,
+                                     std::vector<int32_t>* made) {
+  if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
+  const int32_t ref = m_.tet_ref[t];
+  const bool has_entity = !m_.tet_entity.empty();
+  const int32_t entity = has_entity ? m_.tet_entity[t] : 0;
+  auto joinable = [&](int32_t o, int f) -> int32_t {
+    const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+    if (nb < 0 || ((m_.face_mask[o] >> f) & 1u)) return -1;
+    const int32_t n = nb / 4;
+    if (!alive(n) || m_.tet_ref[n] != ref || (has_entity && m_.tet_entity[n] != entity)) return -1;
+    return n;
+  };
+  // Walk: cross the face x lies farthest beyond until x is inside.
+  int32_t cur = t;
+  for (int step = 0;; ++step) {
+    if (step > 256) return TopoResult::NotApplicable;
+    const int32_t* tv = m_.tet(cur);
+    int bf = -1;
+    double bo = 0;
+    for (int f = 0; f < 4; ++f) {
+      const double o = orient_approx(m_.point(tv[kFaceVertex[f][0]]), m_.point(tv[kFaceVertex[f][1]]),
+                                     m_.point(tv[kFaceVertex[f][2]]), x);
+      if (o > bo) { bo = o; bf = f; }
+    }
+    if (bf < 0) break;
+    const int32_t n = joinable(cur, bf);
+    if (n < 0) return TopoResult::BoundaryLocked;
+    cur = n;
+  }
+  // Bowyer-Watson cavity, breadth first from the containing tet.  A tet
+  // is tested once: mark_[tet] == the call's epoch once seen, + 1 once in
+  // the cavity.
+  if (mark_.size() < static_cast<size_t>(m_.nt())) mark_.resize(m_.nt(), 0);
+  mark_epoch_ += 2;
+  if (mark_epoch_ < 2) {  // wrapped
+    std::fill(mark_.begin(), mark_.end(), 0);
+    mark_epoch_ = 2;
+  }
+  const uint32_t seen_mark = mark_epoch_, cav_mark = mark_epoch_ + 1;
+  int32_t cav[kMaxPointCavity];
+  int nc = 0;
+  cav[nc++] = cur;
+  mark_[cur] = cav_mark;
+  auto in_cav = [&](int32_t v) { return mark_[v] == cav_mark; };
+  for (int i = 0; i < nc; ++i)
+    for (int f = 0; f < 4; ++f) {
+      const int32_t n = joinable(cav[i], f);
+      if (n < 0 || mark_[n] >= seen_mark) continue;
+      mark_[n] = seen_mark;
+      if (nc >= kMaxPointCavity) continue;
+      const int32_t* nv = m_.tet(n);
+      double cc[3], r2;
+      if (!detail::circumsphere(m_.point(nv[0]), m_.point(nv[1]), m_.point(nv[2]), m_.point(nv[3]), cc, r2)) continue;
+      const double d2 = (x[0] - cc[0]) * (x[0] - cc[0]) + (x[1] - cc[1]) * (x[1] - cc[1]) + (x[2] - cc[2]) * (x[2] - cc[2]);
+      if (d2 < r2 * (1 - 1e-12)) {
+        cav[nc++] = n;
+        mark_[n] = cav_mark;
+      }
+    }
+  // Shrink until x sees every outer face; a tet whose outer face x does not
+  // see leaves the cavity (the containing tet never does: then no insertion).
+  int32_t face[kMaxNew][3];
+  int nf = 0;
+  for (;;) {
+    nf = 0;
+    int drop = -1;
+    for (int i = 0; i < nc && drop < 0; ++i) {
+      const int32_t o = cav[i];
+      const int32_t* tv = m_.tet(o);
+      for (int f = 0; f < 4; ++f) {
+        const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+        if (nb >= 0 && in_cav(nb / 4)) continue;
+        const int32_t v0 = tv[kFaceVertex[f][0]], v1 = tv[kFaceVertex[f][1]], v2 = tv[kFaceVertex[f][2]];
+        if (orient3d(m_.point(v0), m_.point(v2), m_.point(v1), x) != Sign::Positive) {
+          drop = i;
+          break;
+        }
+        if (nf >= kMaxNew) return TopoResult::ShellTooLarge;
+        face[nf][0] = v0;
+        face[nf][1] = v2;
+        face[nf][2] = v1;
+        ++nf;
+      }
+    }
+    if (drop < 0) break;
+    if (drop == 0) return TopoResult::Inverted;
+    mark_[cav[drop]] = seen_mark;
+    cav[drop] = cav[--nc];
+  }
+  // No vertex and no listed edge may vanish inside the cavity.
+  auto on_surface = [&](int32_t a, int32_t b) {
+    for (int j = 0; j < nf; ++j) {
+      const bool ha = face[j][0] == a || face[j][1] == a || face[j][2] == a;
+      if (ha && (b < 0 || face[j][0] == b || face[j][1] == b || face[j][2] == b)) return true;
+    }
+    return false;
+  };
+  for (int i = 0; i < nc; ++i) {
+    const int32_t* tv = m_.tet(cav[i]);
+    for (int k = 0; k < 4; ++k) {
+      if (!on_surface(tv[k], -1)) return TopoResult::NotApplicable;
+      const double* p = m_.point(tv[k]);
+      if ((p[0] - x[0]) * (p[0] - x[0]) + (p[1] - x[1]) * (p[1] - x[1]) + (p[2] - x[2]) * (p[2] - x[2]) <
+          min_dist * min_dist)
+        return TopoResult::NotApplicable;
+    }
+    if (!listed_edges_.empty())
+      for (int le = 0; le < 6; ++le) {
+        const int32_t a = tv[kEdgeVertex[le][0]], b = tv[kEdgeVertex[le][1]];
+        if (std::binary_search(listed_edges_.begin(), listed_edges_.end(), edge_key(a, b)) && !on_surface(a, b))
+          return TopoResult::BoundaryLocked;
+      }
+  }
+  Candidate& c = *cand_;
+  c.kind = Candidate::Insert;
+  c.size = 1;
+  c.ref = ref;
+  c.entity = entity;
+  set_old_tets(c, cav, nc);
+  // The acceptance first (finish_plan checks it again), without the vertex:
+  // most refused points fail here, before the plan's other checks.
+  const double floor = std::max(acc.floor_for(c.old_min), 0.0);
+  for (int i = 0; i < nf; ++i)
+    if (!(quality(m_.point(face[i][0]), m_.point(face[i][1]), m_.point(face[i][2]), x) >= floor))
+      return TopoResult::NotImproved;
+  const int32_t nv = push_vertex(x);
+  c.n_new = nf;
+  for (int i = 0; i < nf; ++i) {
+    c.quad[i][0] = face[i][0];
+    c.quad[i][1] = face[i][1];
+    c.quad[i][2] = face[i][2];
+    c.quad[i][3] = nv;
+  }
+  accept_ = acc;
+  accept_.on = true;
+  const TopoResult r = finish_plan(true, c);
+  accept_ = {};
+  if (r != TopoResult::Applied) {
+    pop_vertex();
+    return r;
+  }
+  int32_t slots[kMaxNew];
+  commit(c, slots);
+  if (made) made->assign(slots, slots + nf);
+  return TopoResult::Applied;
+}
+
 TopoResult TopoEditor::plan_best(int32_t t, bool strict, Candidate*& cand, Candidate*& best,
                                  std::vector<int32_t>* reads, double floor) const {
   if (!alive(t)) return TopoResult::NotApplicable;

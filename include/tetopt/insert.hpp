@@ -100,6 +100,10 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o = {}, const LogFn& lo
 struct RemeshOptions {
   double size = 0;              ///< > 0: target edge length everywhere
   double split_above = 1.4;     ///< split edges longer than this times the size
+  /// An edge joining two constrained vertices (across the volume: only a
+  /// split or a flip removes it) is long above the smaller of this and
+  /// split_above.
+  double split_spanning = 1.4;
   double collapse_below = 0.6;  ///< collapse edges shorter than this times the size
   int sweeps = 1;               ///< split + collapse sweeps in this call
   /// Per sweep, up to this many (collect long edges, split them) loops,
@@ -131,5 +135,48 @@ struct RemeshStats {
 /// vertices keep theirs).  Builds the topology when missing and leaves it
 /// current (removed vertices stay in the array, unreferenced).
 RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions& o = {}, const LogFn& log = {});
+
+/// The remesher's first step where the volume is far coarser than the size
+/// field (issue 27 item 5; raw `tetgen -p` output has no interior vertex):
+/// Delaunay refinement by size (Shewchuk 1998, "Tetrahedral mesh generation
+/// by Delaunay refinement", SoCG: insert the circumcentre of a tet whose
+/// circumradius is too large).  Tets whose circumradius exceeds
+/// radius_above x the mean size at their four vertices are taken largest
+/// ratio first; each one's circumcentre is inserted by
+/// TopoEditor::insert_point (a Bowyer-Watson cavity within the tet's region,
+/// never across a constrained face) when the walk to it stays inside the
+/// region and the new tets' worst quality is admitted by the same
+/// Acceptance as split_edge (floor: the mesh's worst at the start, so the
+/// worst never falls).  A circumcentre beyond a constrained face is skipped:
+/// the tet is left to the cavities of its neighbours' circumcentres and to
+/// the split sweeps.  One insertion makes one vertex and about a cavity of
+/// tets, where reaching the same density by edge splits inserted 4-5 times
+/// the net vertices and collapsed most of them again (docs/benchmarks.md,
+/// nineteenth session).  The new vertex's size is the mean of its tet's.
+struct RefineOptions {
+  double size = 0;            ///< > 0: target edge length everywhere (as RemeshOptions::size)
+  double radius_above = 0.8;  ///< refine tets whose circumradius exceeds this times their size
+  double cap = 0.3;           ///< Acceptance::cap
+  double ratio = 0.9;         ///< Acceptance::ratio
+  /// No vertex of the cavity may lie closer to the circumcentre than this
+  /// times the size (the remesher would collapse the edge again).
+  double min_dist = 0.6;
+  Objective objective = Objective::Alpha;
+  const Guard* guard = nullptr;
+  const std::atomic<bool>* stop = nullptr;
+};
+
+struct RefineStats {
+  int64_t inserted = 0;  ///< circumcentres inserted
+  int64_t tried = 0;     ///< tets whose circumcentre was tried
+  int64_t large = 0;     ///< tets above the ratio at the start
+  double seconds = 0;
+  Status status;
+};
+
+/// Delaunay refinement toward the size field (see RefineOptions).  `h` as
+/// in remesh_pass (computed when its size is not m.nv(); extended for every
+/// new vertex).  Builds the topology when missing and leaves it current.
+RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions& o = {}, const LogFn& log = {});
 
 }  // namespace tetopt

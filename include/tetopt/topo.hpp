@@ -89,6 +89,8 @@ const char* to_string(TopoResult r);
 
 /// Largest shell / ring size any operation accepts (capacity of the scratch).
 inline constexpr int kMaxShell = 16;
+/// Most tets of a TopoEditor::insert_point cavity.
+inline constexpr int kMaxPointCavity = 40;
 
 /// What the operations maximise (the worst value over a cavity's new tets).
 enum class TopoMeasure {
@@ -295,6 +297,23 @@ class TopoEditor {
   /// necessarily above the old worst: the caller chooses).  Alpha
   /// measure only.
   TopoResult split_edge(int32_t t, int le, const Acceptance& acc, double wa = 0.5);
+  /// Point insertion by a Bowyer-Watson cavity (the remesher's refinement,
+  /// refine_pass in insert.hpp; Bowyer 1981, Watson 1981; Shewchuk's
+  /// Delaunay refinement inserts circumcentres so): x is located by a walk
+  /// from t across unconstrained faces of t's region (refused when the walk
+  /// meets a constrained face, the domain boundary or another region); the
+  /// cavity is the containing tet plus the tets of the region reached across
+  /// unconstrained faces whose circumsphere holds x (at most
+  /// kMaxPointCavity), shrunk until x sees every outer face (exact
+  /// orient3d), so the cone from a new free vertex at x (appended, as
+  /// insert_vertex) over the outer faces fills it.  Every cavity vertex
+  /// stays on an outer face and no listed edge or triangle vanishes.  Taken
+  /// when the new tets pass the guards and acc admits their worst quality.
+  /// Refused (NotApplicable) when a vertex of the cavity lies closer to x
+  /// than min_dist.  `made`, when given, receives the new tets' ids.  Alpha
+  /// measure only.
+  TopoResult insert_point(int32_t t, const double* x, const Acceptance& acc, double min_dist = 0,
+                          std::vector<int32_t>* made = nullptr);
   /// Edge collapse: remove_vertex restricted to the contraction of one
   /// endpoint of local edge le of t (a free one; a first, then b) onto the
   /// other, taken when acc admits the new tets' worst quality; only a
@@ -415,6 +434,8 @@ class TopoEditor {
   bool restoring_ = false;            // finish_plan plans an undo: no policy, no orientation test
   std::vector<Candidate> trial_;      // improve_tet_pair's first operations (allocated on first use)
   std::vector<int32_t> around_;       // improve_tet_pair's tets near t
+  std::vector<uint32_t> mark_;        // insert_point's per-tet marks (seen, in the cavity)
+  uint32_t mark_epoch_ = 0;
 
   double deferred(int32_t t) const;
   void fill_cache();

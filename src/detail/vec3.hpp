@@ -31,4 +31,25 @@ inline void face_normals(const double* const p[4], double n[4][3], double nl[4])
   }
 }
 
+/// Circumcentre cc and squared circumradius r2 of tet (a, b, c, d): with b,
+/// c, d relative to a, cc = a + (|b|^2 c x d + |c|^2 d x b + |d|^2 b x c) /
+/// (2 b . (c x d)).  False for a flat tet.
+inline bool circumsphere(const double* a, const double* b, const double* c, const double* d, double* cc, double& r2) {
+  const double ba[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double ca[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const double da[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+  double cd[3], db[3], bc[3];
+  cross(ca, da, cd);
+  cross(da, ba, db);
+  cross(ba, ca, bc);
+  const double den = 2 * dot(ba, cd);
+  if (!(std::abs(den) > 0)) return false;
+  const double nb = dot(ba, ba), nc = dot(ca, ca), nd = dot(da, da);
+  double off[3];
+  for (int k = 0; k < 3; ++k) off[k] = (nb * cd[k] + nc * db[k] + nd * bc[k]) / den;
+  r2 = dot(off, off);
+  for (int k = 0; k < 3; ++k) cc[k] = a[k] + off[k];
+  return std::isfinite(r2);
+}
+
 }  // namespace tetopt::detail
