@@ -9,7 +9,10 @@
 # bit-identical, no inverted tet, volumes kept); worst / mean alpha and the
 # tets below alpha 0.2 come from its statistics.  Time: wall seconds of each
 # process; the ratios (insert / default, MMG / insert) are what to read.
-#   usage: bench/remesh.sh BUILD_DIR [OUT_DIR]     MMG=/path/to/mmg3d_O3 to add MMG
+# Extra meshes: MESHES="a.mesh b.mesh" (read in place).  Seconds are wall
+# (CPU = user + sys in brackets).
+#   usage: bench/remesh.sh BUILD_DIR [OUT_DIR]     MMG=/path/to/mmg3d_O3 to add MMG,
+#          BEFORE=/path/to/an/older/tetopt to add its --allow-insert --allow-remove run
 set -uo pipefail
 BUILD=${1:?usage: bench/remesh.sh BUILD_DIR [OUT_DIR]}
 OUT=${2:-out/bench/remesh}
@@ -32,6 +35,7 @@ done
 [ -f "$OUT/impeller_s2.mesh" ] || gmsh -3 -nt 1 -setnumber s 2 -format mesh "$ROOT/demo/impeller.geo" -o "$OUT/impeller_s2.mesh" > /dev/null 2>&1
 meshes+=("$OUT/impeller_s2.mesh")
 for f in hinge_raw/hinge_raw.mesh tire/tire.vtk flange/flange.mesh; do [ -f "$SH/$f" ] && meshes+=("$SH/$f"); done
+for f in ${MESHES:-}; do meshes+=("$f"); done
 
 stats() {  # referee verdict and statistics of $2 against $1
   local v
@@ -44,14 +48,12 @@ n = re.search(r"(\d+) tets", t)
 print("%s | %.4f | %.4f | %s | %s" % (n.group(1) if n else "?", float(w.group(1)), float(w.group(2)), b.group(1), sys.argv[2]))
 PYEOF
 }
-run() {  # name, output, command...
+run() {  # name, output, command...: prints "wall (cpu)"
   local name=$1 o=$2; shift 2
-  local t0 t1
-  t0=$(date +%s.%N)
-  "$@" > "$o.log" 2>&1
-  t1=$(date +%s.%N)
-  echo "$(echo "$t1 - $t0" | bc)"
+  /usr/bin/time -f "%e %U %S" -o "$o.time" "$@" > "$o.log" 2>&1
+  awk '{printf "%.2f (%.2f)", $1, $2 + $3}' "$o.time"
 }
+wall() { echo "${1%% *}"; }
 echo "| mesh | tool | seconds | tets | worst α | mean α | tets α<0.2 | referee |"
 echo "|---|---|---|---|---|---|---|---|"
 for m in "${meshes[@]}"; do
@@ -61,11 +63,15 @@ for m in "${meshes[@]}"; do
   s1=$(run ins "$OUT/${b}_ins.$ext" "$T" improve "$m" -o "$OUT/${b}_ins.$ext" -q --allow-insert --allow-remove)
   echo "| $b | input | | $(stats "$m" "$m" | cut -d'|' -f1-4) | |"
   echo "| $b | tetopt default | $s0 | $(stats "$m" "$OUT/${b}_def.$ext") |"
-  echo "| $b | tetopt --allow-insert --allow-remove | $s1 ($(echo "scale=1; $s1 / $s0" | bc)x default) | $(stats "$m" "$OUT/${b}_ins.$ext") |"
+  echo "| $b | tetopt --allow-insert --allow-remove | $s1, $(echo "scale=1; $(wall "$s1") / $(wall "$s0")" | bc)x default | $(stats "$m" "$OUT/${b}_ins.$ext") |"
+  if [ -n "${BEFORE:-}" ] && [ -x "$BEFORE" ]; then
+    s3=$(run old "$OUT/${b}_old.$ext" "$BEFORE" improve "$m" -o "$OUT/${b}_old.$ext" -q --allow-insert --allow-remove)
+    echo "| $b | BEFORE --allow-insert --allow-remove | $s3 | $(stats "$m" "$OUT/${b}_old.$ext") |"
+  fi
   if [ -n "${MMG:-}" ] && [ -x "$MMG" ]; then
     src=$m
     if [ "${m##*.}" != mesh ]; then src=$OUT/${b}_in.mesh; "$T" convert "$m" "$src" > /dev/null; fi
     s2=$(run mmg "$OUT/${b}_mmg.mesh" "$MMG" -optim -nosurf -v -1 "$src" -out "$OUT/${b}_mmg.mesh")
-    echo "| $b | MMG -optim -nosurf | $s2 ($(echo "scale=2; $s2 / $s1" | bc)x tetopt insert) | $(stats "$m" "$OUT/${b}_mmg.mesh") |"
+    echo "| $b | MMG -optim -nosurf | $s2, $(echo "scale=2; $(wall "$s2") / $(wall "$s1")" | bc)x tetopt insert | $(stats "$m" "$OUT/${b}_mmg.mesh") |"
   fi
 done
