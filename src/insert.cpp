@@ -3,6 +3,7 @@
 #include "tetopt/insert.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -36,6 +37,23 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   st.alpha_worst_before = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t) st.alpha_worst_before = std::min(st.alpha_worst_before, ed.cached_alpha(t));
   std::vector<int32_t> work;
+  // A tet refused in an earlier pass is not tried again while no commit
+  // has touched it or its face neighbours (their vertices: the cavities
+  // start there), nor has it been replaced: failed[t] holds the epoch that
+  // began after its refusal, vert[t] its vertices then.
+  std::vector<uint32_t> failed;
+  std::vector<std::array<int32_t, 4>> failed_v;
+  auto unchanged = [&](int32_t t) {
+    if (static_cast<size_t>(t) >= failed.size() || failed[t] == 0) return false;
+    const int32_t* tv = m.tet(t);
+    if (!std::equal(tv, tv + 4, failed_v[t].begin())) return false;
+    if (ed.touched_since(t, failed[t])) return false;
+    for (int f = 0; f < 4; ++f) {
+      const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f];
+      if (nb >= 0 && ed.touched_since(nb / 4, failed[t])) return false;
+    }
+    return true;
+  };
   for (int p = 0; p < std::max(1, o.passes); ++p) {
     work.clear();
     for (int32_t t = 0; t < m.nt(); ++t)
@@ -48,9 +66,19 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     int64_t ins = 0, rem = 0;
     for (int32_t t : work) {
       if (!ed.alive(t) || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
+      if (unchanged(t)) continue;
       ++st.tried;
       if (o.insert && ed.insert_vertex(t) == TopoResult::Applied) ++ins;
       else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) ++rem;
+      else if (ed.alive(t)) {
+        if (failed.size() < static_cast<size_t>(m.nt())) {
+          failed.resize(m.nt(), 0);
+          failed_v.resize(m.nt());
+        }
+        failed[t] = ed.next_stamp();
+        const int32_t* tv = m.tet(t);
+        std::copy(tv, tv + 4, failed_v[t].begin());
+      }
     }
     st.inserted += ins;
     st.removed += rem;
