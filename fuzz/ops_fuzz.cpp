@@ -1,5 +1,5 @@
 // libFuzzer target: random sequences of smoothing, topological operations
-// (the remesher's edge split and collapse included) and untangling on a
+// (the remesher's edge split, collapse and point insertion included) and untangling on a
 // small generated box mesh, validating after every step.
 //
 // Input layout: 6 header bytes (cells per axis, jitter, regions, seed,
@@ -20,6 +20,7 @@
 // random ones are refused) is not checked again: the arrays it could touch
 // are compared with the last checked state instead.  The library's
 // non-reader sources are built without comparison tracing (CMakeLists.txt).
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -205,10 +206,32 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         acc.floor = (c & 0x80) ? 0.0 : 0.2;
         acc.cap = (c & 0x20) ? 1.0 : 0.3;
         acc.ratio = 0.5 + ((c >> 1) & 3) * 0.15;
-        if (op % 12 == 10) ed.split_edge(t, c % 6, acc, 0.25 + 0.5 * (a & 1));
-        else ed.collapse_edge(t, c % 6, acc);
+        const char* name = "split_edge";
+        if (op % 12 == 10) {
+          ed.split_edge(t, c % 6, acc, 0.25 + 0.5 * (a & 1));
+        } else if (b & 1) {
+          // Bowyer-Watson point insertion (refine_pass): a point spread
+          // from t's centroid by up to 1.5 times t's extent along each axis
+          // (b, c choose it), so walks, cavities across faces and points
+          // outside the domain are all reached.
+          name = "insert_point";
+          double x[3] = {0, 0, 0}, lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+          for (int i = 0; i < 4; ++i)
+            for (int k = 0; k < 3; ++k) {
+              const double p = m.point(m.tet(t)[i])[k];
+              x[k] += 0.25 * p;
+              lo[k] = std::min(lo[k], p);
+              hi[k] = std::max(hi[k], p);
+            }
+          const int d[3] = {(b >> 1) & 7, (b >> 4) & 7, c & 7};
+          for (int k = 0; k < 3; ++k) x[k] += (d[k] - 3.5) / 3.5 * 1.5 * (hi[k] - lo[k]);
+          ed.insert_point(t, x, acc, (a & 2) ? 0.0 : 1e-3);
+        } else {
+          name = "collapse_edge";
+          ed.collapse_edge(t, c % 6, acc);
+        }
         ed.finish();
-        check(op % 12 == 10 ? "split_edge" : "collapse_edge");
+        check(name);
         break;
       }
       case 9: {
