@@ -321,8 +321,9 @@ def improve(
         size: with allow_insert, the remesher's target edge length everywhere
             (``--size``); 0: the size field of the boundary triangles (or a
             point field named 'size').
-        remesh: with allow_insert, run the interior remesher first (edge
-            splits and collapses toward the size field); False is
+        remesh: with allow_insert, run the interior remesher first
+            (circumcentres of the tets too large for the size field, then
+            edge splits and collapses toward it); False is
             ``--no-remesh``: insertion in the worst tets' cavities only.
         progress: ``callable(phase, round, fraction, worst)`` called at every
             phase boundary (``tetopt::ImproveOptions::progress``): phase
