@@ -123,6 +123,18 @@ double wedges_best_alpha(const double* p, const double* q, const double* r, cons
 /// MaxDihedral).
 double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj = ApexObjective::Alpha);
 
+/// The bound on one side of a kept face: the best alpha of a tet standing
+/// on it there, in any mesh keeping the kept triangles.
+struct SideBound {
+  double alpha = NAN;
+  bool wedged = false;          ///< its apex kept inside the wedges of sharp edges (face_wedges)
+  bool walled = false;          ///< its apex kept clear of walls facing it (see the essay)
+  double wall_distance = NAN;   ///< walled: distance from the centroid along the normal to the first wall
+};
+/// packed = 4 t + f, f a constrained face of tet t: the side is t's.
+/// Requires m's topology.
+SideBound side_bound(const TetMesh& m, int32_t packed);
+
 /// Mesh-wide bound over all constrained triangles (each counted once).
 struct MeshBound {
   int64_t triangles = 0;          ///< constrained triangles
@@ -147,6 +159,9 @@ struct MeshBound {
   /// diagnose() only: when a poor tet's wedge bound (PoorTet::wedge_alpha)
   /// is below every triangle's, alpha is that bound and this its angle.
   double alpha_wedge_deg = NAN;
+  /// When the alpha bound's triangle side is capped by a wall facing it
+  /// (side_bound), the wall's distance along its normal; NaN otherwise.
+  double alpha_wall_d = NAN;
   int64_t refined = 0;            ///< triangles searched in full (all objectives)
   /// The fewest tets below alpha kCountThresholds[k] that any mesh keeping
   /// the constrained triangles has (-1: not computed).  Each side of a kept
@@ -200,6 +215,11 @@ struct PoorTet {
   /// best_alpha comes from a face on the domain boundary with sharp convex
   /// edges, its apex kept inside the wedges there (wedges_best_alpha).
   bool wedged = false;
+  /// best_alpha comes from a face whose side is capped by kept triangles
+  /// facing it (side_bound: a wall one tet thick); wall_d is the distance
+  /// from the face's centroid to the first of them along its normal.
+  bool walled = false;
+  double wall_d = NAN;
   double centroid[3] = {0, 0, 0};
 };
 
