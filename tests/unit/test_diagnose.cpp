@@ -685,3 +685,81 @@ TEST(Diagnose, ThinSlabCapsTheApex) {
               (long long)dg.bound.below_at_least[1], (long long)dg.bound.below_at_least[2], (long long)below[0],
               (long long)below[1], (long long)below[2]);
 }
+
+// A thin wall inside a box, as a region interface: make_box_mesh's 4 x 4 x 3
+// box with its middle layer squeezed to 0.15 (z in [1.5, 1.65]) and made
+// region 2.  The tets of the wall stand on interface triangles (kept) whose
+// other face is 0.15 away: capped from inside the wall, not from outside (the
+// box's faces are 1.5 away, beyond one longest edge).
+TEST(Diagnose, ThinWallInsideABoxCapsOnlyItsInside) {
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = 4;
+  bo.nz = 3;
+  TetMesh m = make_box_mesh(bo);
+  const double zmap[4] = {0, 1.5, 1.65, 3.2};
+  for (int32_t v = 0; v < m.nv(); ++v) {
+    double& z = m.xyz[3 * static_cast<size_t>(v) + 2];
+    z = zmap[static_cast<int>(std::lround(z))];
+  }
+  for (int32_t t = 0; t < m.nt(); ++t) {
+    const int32_t* v = m.tet(t);
+    double cz = 0;
+    for (int k = 0; k < 4; ++k) cz += m.point(v[k])[2] / 4;
+    m.tet_ref[t] = cz > 1.5 && cz < 1.65 ? 2 : 1;
+  }
+  ASSERT_TRUE(build_topology(m).ok());
+  int inside = 0, outside = 0;
+  double inside_min = 1;
+  for (int32_t t = 0; t < m.nt(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      if (!(m.face_mask[t] & (1u << f))) continue;
+      const int32_t* v = m.tet(t);
+      const double *a = m.point(v[kFaceVertex[f][0]]), *b = m.point(v[kFaceVertex[f][1]]),
+                   *c = m.point(v[kFaceVertex[f][2]]);
+      if (!(a[2] == 1.5 && b[2] == 1.5 && c[2] == 1.5)) continue;  // the wall's lower face
+      const SideBound sb = side_bound(m, 4 * t + f);
+      const double own = best_apex(a, b, c).value;
+      if (m.tet_ref[t] == 2) {
+        ++inside;
+        EXPECT_TRUE(sb.walled);
+        EXPECT_NEAR(sb.wall_distance, 0.15, 1e-12);
+        EXPECT_LT(sb.alpha, own - 0.1);
+        inside_min = std::min(inside_min, sb.alpha);
+        const double lo[3] = {0, 0, 1.5}, hi[3] = {4, 4, 1.65};
+        const double s = sampled_best(a, b, c, lo, hi, 40000, 11u + static_cast<uint32_t>(t));
+        EXPECT_GE(sb.alpha + 1e-4, s);
+        EXPECT_GT(s, 0.97 * sb.alpha);
+      } else {
+        ++outside;
+        EXPECT_FALSE(sb.walled);
+        EXPECT_NEAR(sb.alpha, own, 1e-9);
+      }
+    }
+  ASSERT_EQ(inside, 32);
+  ASSERT_EQ(outside, 32);
+  const Diagnosis dg = diagnose(m, {0.3, true});
+  EXPECT_NEAR(dg.bound.alpha, inside_min, 1e-9);
+  EXPECT_NEAR(dg.bound.alpha_wall_d, 0.15, 1e-12);
+  // The wall's 32 + 32 interface triangles are bad at 0.3 from inside and
+  // no two can be faces of one tet: 64 tets below 0.3 in every mesh (the
+  // triangles' own bound, 0.3083 on each side, gave none).
+  EXPECT_EQ(dg.bound.below_at_least[2], 64);
+  TetMesh w = m;
+  ImproveOptions o;
+  o.mode = ImproveMode::Best;
+  o.allow_insert = o.allow_remove = true;
+  ImproveReport r;
+  ASSERT_TRUE(improve(w, o, r).ok());
+  double worst = 1;
+  int64_t below[3] = {0, 0, 0};
+  for (int32_t t = 0; t < w.nt(); ++t) {
+    const double q = tet_alpha(w, t);
+    worst = std::min(worst, q);
+    for (size_t k = 0; k < 3; ++k) below[k] += q < kCountThresholds[k];
+  }
+  EXPECT_LE(worst, dg.bound.alpha + 1e-9);
+  for (size_t k = 0; k < 3; ++k) EXPECT_LE(dg.bound.below_at_least[k], below[k]) << k;
+  std::printf("wall 0.15: capped %.4f improve worst %.4f floor %lld/%lld/%lld below %lld/%lld/%lld\n", dg.bound.alpha,
+              worst, (long long)dg.bound.below_at_least[0], (long long)dg.bound.below_at_least[1],
+              (long long)dg.bound.below_at_least[2], (long long)below[0], (long long)below[1], (long long)below[2]);
+}
