@@ -586,6 +586,42 @@ struct SideConstraint {
     return true;
   }
 
+  // The point where the segment from g toward x first leaves the allowed
+  // set (x itself when it is allowed): g + t (x - g) for the smallest t at
+  // which it crosses a wall or a wedge plane, pulled back by 1e-9 so the
+  // segment to it crosses nothing.  The set is star-shaped from g (a prefix
+  // of an allowed segment is allowed; g lies inside every wedge), so this
+  // is a point of it: maximising alpha at proj(x) over x maximises over
+  // the set, on a continuous objective the searches handle better than a
+  // cliff.  False when x is below T's plane.
+  bool proj(Vec3& x) const {
+    if (!(x[2] >= 0)) return false;
+    double t = 1;
+    for (const Plane& pl : planes) {
+      const double vx = ((x[0] - pl.o[0]) * pl.n[0] + (x[1] - pl.o[1]) * pl.n[1] + (x[2] - pl.o[2]) * pl.n[2]) * pl.sign;
+      if (vx >= 0) continue;
+      const double vg = ((g[0] - pl.o[0]) * pl.n[0] + (g[1] - pl.o[1]) * pl.n[1] + (g[2] - pl.o[2]) * pl.n[2]) * pl.sign;
+      if (!(vg > 0)) return false;
+      t = std::min(t, vg / (vg - vx));
+    }
+    Vec3 y{g[0] + t * (x[0] - g[0]), g[1] + t * (x[1] - g[1]), g[2] + t * (x[2] - g[2])};
+    for (const Wall& k : walls) {
+      if (k.zmin >= y[2]) break;
+      const double lo0 = std::min(g[0], y[0]), hi0 = std::max(g[0], y[0]);
+      const double lo1 = std::min(g[1], y[1]), hi1 = std::max(g[1], y[1]);
+      if (k.hi[0] < lo0 || k.lo[0] > hi0 || k.hi[1] < lo1 || k.lo[1] > hi1) continue;
+      if (!hits(k, y)) continue;
+      const Vec3 ga{g[0] - k.v[0][0], g[1] - k.v[0][1], g[2] - k.v[0][2]};
+      const Vec3 ya{y[0] - k.v[0][0], y[1] - k.v[0][1], y[2] - k.v[0][2]};
+      const double sa = k.n[0] * ga[0] + k.n[1] * ga[1] + k.n[2] * ga[2];
+      const double sb = k.n[0] * ya[0] + k.n[1] * ya[1] + k.n[2] * ya[2];
+      const double u = std::max(0.0, sa / (sa - sb) - 1e-9);
+      for (int i = 0; i < 3; ++i) y[i] = g[i] + u * (y[i] - g[i]);
+    }
+    x = y;
+    return x[2] > 0;
+  }
+
   bool ok(const Vec3& x) const {
     const double tol = 1e-12;
     if (!(x[2] >= 0)) return false;
@@ -614,7 +650,15 @@ struct SideConstraint {
 double constrained_best_alpha(const Frame& f, const SideConstraint& c, const double* start, bool light = false,
                               Vec3* best_at = nullptr, const Vec3* start_local = nullptr) {
   const ApexMeasure g0{f, ApexObjective::Alpha};
+  // With walls the objective is alpha at the point proj gives (a point of
+  // the allowed set); with wedges only, a cliff outside them (as before).
+  const bool walled = !c.walls.empty();
   auto g = [&](const Vec3& x) {
+    if (walled) {
+      Vec3 y = x;
+      if (!c.proj(y)) return -std::numeric_limits<double>::infinity();
+      return g0(y);
+    }
     if (!c.ok(x)) return -std::numeric_limits<double>::infinity();
     return g0(x);
   };
@@ -636,13 +680,18 @@ double constrained_best_alpha(const Frame& f, const SideConstraint& c, const dou
         const Vec3 x{x0 + (x1 - x0) * i / (kN - 1), y0 + (y1 - y0) * j / (kN - 1), 0.01 + 1.19 * k / (kN - 1)};
         starts.push_back({g(x), x});
       }
-  if (c.wall_h > 0)  // layers under the lowest wall: a thin slab holds few grid points
-    for (double fr : {0.25, 0.5, 0.75, 0.95})
-      for (int i = 0; i < kN; ++i)
-        for (int j = 0; j < kN; ++j) {
-          const Vec3 x{x0 + (x1 - x0) * i / (kN - 1), y0 + (y1 - y0) * j / (kN - 1), fr * c.wall_h};
+  if (c.wall_h > 0) {
+    // Layers at the walls' scale: a thin slab holds few grid points, and
+    // where the facing wall curves or tilts away the best apexes lie beside
+    // the triangle, up to a few times higher than above its centroid.
+    constexpr int kW = 15;
+    for (double fr : {0.25, 0.5, 0.75, 0.95, 1.25, 1.5, 2.0, 2.5, 3.0})
+      for (int i = 0; i < kW; ++i)
+        for (int j = 0; j < kW; ++j) {
+          const Vec3 x{x0 + (x1 - x0) * i / (kW - 1), y0 + (y1 - y0) * j / (kW - 1), fr * c.wall_h};
           starts.push_back({g(x), x});
         }
+  }
   // Points of each wedge near its edge at every depth: the search box of a
   // thin wedge holds few grid points.
   for (const SideConstraint::Plane& pl : c.planes) {
@@ -669,6 +718,7 @@ double constrained_best_alpha(const Frame& f, const SideConstraint& c, const dou
     fx = compass(g, x, fx, 1e-3, 1e-10, light ? 600 : 3000);
     if (fx > best) { best = fx; bx = x; }
   }
+  if (walled) c.proj(bx);  // the point reaching the value
   if (best_at) *best_at = bx;
   return std::max(best, 0.0);
 }
