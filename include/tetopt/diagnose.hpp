@@ -44,10 +44,28 @@
 // refines lazily, only the constrained faces of tets below the threshold whose
 // cheap value is below the threshold.
 //
+// Walls (issue 27, item 2: a wall one tet thick).  A side of a kept face
+// sees more than its triangle: the tet standing on T there, with apex D,
+// contains the open segment from T's centroid g to D (its points have
+// positive barycentric coordinates), and no tet of a conforming mesh that
+// keeps the triangles has a point of a kept triangle inside it.  So D is
+// impossible whenever that segment crosses a kept triangle, and
+//     best_alpha(T, side) <= max alpha(T, D) over D whose segment from g
+//                            crosses no kept triangle
+// for any set of kept triangles tested: fewer only loosens it, so the sets
+// chosen need no proof of coverage.  Tested: the kept faces within 3.5
+// longest edges reachable through that side's tets, when a walk along T's
+// normal meets one within one longest edge (side_bound; crossings count
+// only when clear by 1e-9 longest edges).  The allowed set is star-shaped
+// from g, so the search maximises alpha at the first wall point on the
+// segment toward each trial apex.  A slab d thick over triangles of size L
+// caps the apex near height d: alpha about sqrt(6) d / L for d << L.
+//
 // Classification of a tet t with alpha(t) < gamma (the threshold):
 //   LockedByTriangle    t has a constrained face T with best_alpha(T) < gamma:
 //                       no method that keeps T can lift T's tet to gamma (it
-//                       may still be improved up to best_alpha(T)).
+//                       may still be improved up to best_alpha(T)); T's
+//                       bound on t's side counts its wedges and walls.
 //   LockedByNeighbours  not the above, and all four vertices of t are
 //                       constrained (kind 4): smoothing cannot move any of
 //                       them, only a topological change can help, and the
