@@ -1118,7 +1118,12 @@ bool side_thin(const TetMesh& m, int32_t side) {
 // MeshBound::below_at_least.  cheap: each face's achieved alpha, at most
 // the best of each of its sides; cache: best alpha by triangle shape, as the
 // bound's own search filled it.
-std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces,
+// Sides already searched (side_best's value by packed side), shared by the
+// diagnosis, the bound's search and the count floor: walled sides are
+// searched once (not cached by shape, and each costs milliseconds).
+using SideCache = std::unordered_map<int32_t, SideBound>;
+
+std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces, const SideCache& known,
                                    const std::vector<double>& cheap,
                                    std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>& cache,
                                    int threads) {
@@ -1164,6 +1169,9 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
     if (!shape_key(Frame(p[0], p[1], p[2]), key)) best[j] = 0;
     else if (const auto it = cache.find(key); it != cache.end()) best[j] = it->second;
   }
+  for (size_t j = 0; j < sides.size(); ++j)
+    if (best[j] < 0)
+      if (const auto it = known.find(sides[j]); it != known.end()) best[j] = it->second.alpha;
   detail::parallel_for_each(static_cast<int64_t>(sides.size()), threads, [&](int64_t j) {
     if (best[j] < 0) best[j] = side_best(m, sides[j], nullptr);
   });
@@ -1227,7 +1235,8 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
 
 }  // namespace
 
-MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
+namespace {
+MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, SideCache& known) {
   const auto t0 = std::chrono::steady_clock::now();
   MeshBound mb;
   const std::vector<int32_t> faces = constrained_faces(m, threads);
@@ -1327,12 +1336,19 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
       const double* p[3];
       face_points(m, faces[i], p);
       if (o == 0 && (wedged[i] || walled[i])) {
-        SideBound info[2];
-        double found = side_best(m, faces[i], &cache[o], &info[0]);
-        double d = info[0].wall_distance;
+        auto side_value = [&](int32_t side) {
+          if (const auto it = known.find(side); it != known.end()) return it->second;
+          SideBound sb;
+          sb.alpha = side_best(m, side, &cache[o], &sb);
+          known.emplace(side, sb);
+          return sb;
+        };
+        const SideBound first = side_value(faces[i]);
+        double found = first.alpha;
+        double d = first.wall_distance;
         if (const int32_t nb = m.adj[static_cast<size_t>(faces[i])]; nb >= 0) {
-          const double other = side_best(m, nb, &cache[o], &info[1]);
-          if (other < found) { found = other; d = info[1].wall_distance; }
+          const SideBound other = side_value(nb);
+          if (other.alpha < found) { found = other.alpha; d = other.wall_distance; }
         }
         const double v = std::max(cheap[o][i], found);
         refined[i] = 1;
@@ -1367,9 +1383,15 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   face_points(m, faces[arg[0]], p);
   for (int k = 0; k < 3; ++k) mb.alpha_location[k] = (p[0][k] + p[1][k] + p[2][k]) / 3;
   for (uint8_t r : refined) mb.refined += r;
-  mb.below_at_least = count_bound(m, faces, cheap[0], cache[0], threads);
+  mb.below_at_least = count_bound(m, faces, known, cheap[0], cache[0], threads);
   mb.seconds = seconds_since(t0);
   return mb;
+}
+}  // namespace
+
+MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
+  SideCache known;
+  return mesh_bound_impl(m, threads, all_measures, known);
 }
 
 SideBound side_bound(const TetMesh& m, int32_t packed) {
@@ -1396,6 +1418,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   d.tets = nt;
   d.tet_class.assign(static_cast<size_t>(nt), static_cast<uint8_t>(TetClass::Good));
   std::unordered_map<int32_t, SideBound> face_best;  // canonical packed face -> best alpha
+  std::vector<int32_t> searched_sides;                 // keys of face_best that side_best filled
   std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> shape_best;  // similar triangles
   // The poor tets, found over parallel blocks (in index order).
   const std::vector<int32_t> poor = detail::parallel_select(
@@ -1438,6 +1461,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         if (wedge || thin) {  // inside the wedges of its sharp edges (face_wedges), clear of the walls (side_walls)
           sb.alpha = side_best(m, packed, nullptr, &sb);
           d.faces_searched++;
+          searched_sides.push_back(packed);
         } else if (cheap_apex_value(fp[0], fp[1], fp[2]) >= opt.threshold) {
           sb.alpha = NAN;  // an apex reaching the threshold exists: not a lock
         } else {
@@ -1507,7 +1531,9 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     return x.alpha < y.alpha || (x.alpha == y.alpha && x.tet < y.tet);
   });
   if (opt.mesh_bound) {
-    d.bound = mesh_bound(m, opt.threads, opt.all_measures);
+    SideCache known;  // the wedged and thin sides searched above
+    for (const int32_t side : searched_sides) known.emplace(side, face_best.at(side));
+    d.bound = mesh_bound_impl(m, opt.threads, opt.all_measures, known);
     // A poor tet's wedge bound holds for the whole mesh too.
     for (const PoorTet& p : d.poor)
       if (!std::isnan(p.wedge_alpha) && !(p.wedge_alpha >= d.bound.alpha)) {
