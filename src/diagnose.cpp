@@ -486,9 +486,9 @@ using WallTri = std::array<double, 9>;
 
 // The apex constraints of one side of a triangle in its Frame (local
 // coordinates, the side mirrored onto z > 0): the wedge planes of
-// face_wedges and the walls.  ok(x) is false only where x is certainly
-// forbidden (margins of 1e-9 longest edges against rounding, toward
-// allowing), so a search over the allowed set bounds every mesh.
+// face_wedges and the walls.  ok(x) is false where x is forbidden (margins
+// of 1e-9 longest edges against rounding: see hits), so a search over the
+// allowed set bounds every mesh.
 struct SideConstraint {
   struct Plane {
     Vec3 o, n;
@@ -566,7 +566,15 @@ struct SideConstraint {
     std::sort(walls.begin(), walls.end(), [](const Wall& a, const Wall& b) { return a.zmin < b.zmin; });
   }
 
-  // Whether the open segment (g, x) certainly meets wall k.
+  // Whether the open segment (g, x) meets wall k: it crosses the wall's
+  // plane clear by 1e-9 longest edges at both ends, at a point of the wall
+  // closed and grown by 1e-9 across its edges.  Closed, because a kept
+  // edge or vertex is in the mesh's skeleton too (no tet holds one inside),
+  // and grown, so that a segment through the edge two walls share is not
+  // let through by rounding (a search finds such cracks); what the growth
+  // forbids beyond a wall's free edge is a sliver whose apexes have
+  // neighbours as good outside it (alpha is continuous).
+  // (Former test: strictly inside by 1e-9, which let those cracks through.)
   bool hits(const Wall& k, const Vec3& x) const {
     constexpr double eps = 1e-9;
     auto dot = [](const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
@@ -581,7 +589,7 @@ struct SideConstraint {
       const Vec3& b = k.v[(i + 1) % 3];
       const Vec3 ab{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ay{y[0] - a[0], y[1] - a[1], y[2] - a[2]};
       const Vec3 c{ab[1] * ay[2] - ab[2] * ay[1], ab[2] * ay[0] - ab[0] * ay[2], ab[0] * ay[1] - ab[1] * ay[0]};
-      if (!(dot(c, k.n) > eps * k.nn * std::sqrt(dot(ab, ab)))) return false;
+      if (!(dot(c, k.n) > -eps * k.nn * std::sqrt(dot(ab, ab)))) return false;
     }
     return true;
   }

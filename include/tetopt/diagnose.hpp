@@ -55,8 +55,10 @@
 // for any set of kept triangles tested: fewer only loosens it, so the sets
 // chosen need no proof of coverage.  Tested: the kept faces within 3.5
 // longest edges reachable through that side's tets, when a walk along T's
-// normal meets one within one longest edge (side_bound; crossings count
-// only when clear by 1e-9 longest edges).  The allowed set is star-shaped
+// normal meets one within one longest edge (side_bound; a crossing counts
+// when clear of the wall's plane by 1e-9 longest edges, at a point of the
+// wall grown by 1e-9 across its edges, so no search escapes through the
+// edge two walls share).  The allowed set is star-shaped
 // from g, so the search maximises alpha at the first wall point on the
 // segment toward each trial apex.  A slab d thick over triangles of size L
 // caps the apex near height d: alpha about sqrt(6) d / L for d << L.
