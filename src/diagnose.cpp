@@ -11,6 +11,7 @@
 #include <numeric>
 #include <sstream>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "detail/parallel.hpp"
 #include "detail/vec3.hpp"
@@ -474,88 +475,270 @@ double wedge_best_alpha(const double* p, const double* q, const double* r, const
   return wedges_best_alpha(p, q, r, w);
 }
 
-double wedges_best_alpha(const double* p, const double* q, const double* r, const double* const s[3]) {
-  const Frame f(p, q, r);
-  if (f.degenerate) return 0;
-  auto loc = [&](const double* w) {
-    Vec3 d{w[0] - f.origin[0], w[1] - f.origin[1], w[2] - f.origin[2]};
-    return Vec3{(d[0] * f.e1[0] + d[1] * f.e1[1] + d[2] * f.e1[2]) / f.scale,
-                (d[0] * f.e2[0] + d[1] * f.e2[1] + d[2] * f.e2[2]) / f.scale,
-                (d[0] * f.n[0] + d[1] * f.n[1] + d[2] * f.n[2]) / f.scale};
-  };
-  const Vec3 lv[3] = {loc(p), loc(q), loc(r)};
-  // Edge e = (v[e], v[e+1]) with s[e]: the apex must stay on the third
-  // vertex's side of the plane (v[e], v[e+1], s[e]).  alpha is symmetric
-  // under the reflection through (p, q, r)'s plane, which ApexMeasure folds
-  // onto z > 0: each s is mirrored there too (they all lie on the domain's
-  // side of (p, q, r), so mirroring keeps them on one side).
+namespace {
+
+// Kept triangles facing one side of a kept face ("walls", issue 27): any
+// kept triangle K that the open segment from T's centroid g to an apex D
+// meets forbids D (that segment lies inside the tet (T, D), and no tet of a
+// conforming mesh has a point of a kept triangle inside it).  World
+// coordinates, 9 doubles each.
+using WallTri = std::array<double, 9>;
+
+// The apex constraints of one side of a triangle in its Frame (local
+// coordinates, the side mirrored onto z > 0): the wedge planes of
+// face_wedges and the walls.  ok(x) is false where x is forbidden (margins
+// of 1e-9 longest edges against rounding: see hits), so a search over the
+// allowed set bounds every mesh.
+struct SideConstraint {
   struct Plane {
     Vec3 o, n;
     double sign;
     Vec3 ls, u;
     int e;
+    Vec3 c3;  // T's vertex off edge e
+  };
+  struct Wall {
+    Vec3 v[3], n;
+    double zmin, nn;
+    double lo[2], hi[2];  // bounding rectangle in x, y
   };
   std::vector<Plane> planes;
-  for (int e = 0; e < 3; ++e) {
-    if (!s[e]) continue;
-    Vec3 ls = loc(s[e]);
-    if (ls[2] < 0) ls[2] = -ls[2];
-    const Vec3& a = lv[e];
-    const Vec3& b = lv[(e + 1) % 3];
-    const Vec3& c = lv[(e + 2) % 3];
-    const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{ls[0] - a[0], ls[1] - a[1], ls[2] - a[2]};
-    const Vec3 n{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-    const double sc = (c[0] - a[0]) * n[0] + (c[1] - a[1]) * n[1] + (c[2] - a[2]) * n[2];
-    if (!(sc != 0)) return 0;
-    planes.push_back({a, n, sc > 0 ? 1.0 : -1.0, ls, u, e});
+  std::vector<Wall> walls;
+  Vec3 g{};            // T's centroid, local
+  double wall_h = 0;   // local height of the lowest wall point above g's normal (0: none)
+  bool bad = false;    // a wedge vertex on T's plane: no bound (wedges_best_alpha returns 0)
+
+  static Vec3 loc(const Frame& f, const double* w) {
+    Vec3 d{w[0] - f.origin[0], w[1] - f.origin[1], w[2] - f.origin[2]};
+    return Vec3{(d[0] * f.e1[0] + d[1] * f.e1[1] + d[2] * f.e1[2]) / f.scale,
+                (d[0] * f.e2[0] + d[1] * f.e2[1] + d[2] * f.e2[2]) / f.scale,
+                (d[0] * f.n[0] + d[1] * f.n[1] + d[2] * f.n[2]) / f.scale};
   }
-  const ApexMeasure g0{f, ApexObjective::Alpha};
-  const double tol = 1e-12;
-  auto g = [&](const Vec3& x) {
-    if (!(x[2] >= 0)) return -std::numeric_limits<double>::infinity();
+
+  // side: a point strictly on the side (for the walls' mirroring); walls may be null.
+  SideConstraint(const Frame& f, const double* p, const double* q, const double* r, const double* const s[3],
+                 const std::vector<WallTri>* wl, const double* side) {
+    const Vec3 lv[3] = {loc(f, p), loc(f, q), loc(f, r)};
+    for (int k = 0; k < 3; ++k) g[k] = (lv[0][k] + lv[1][k] + lv[2][k]) / 3;
+    g[2] = 0;
+    // Edge e = (v[e], v[e+1]) with s[e]: the apex must stay on the third
+    // vertex's side of the plane (v[e], v[e+1], s[e]).  alpha is symmetric
+    // under the reflection through (p, q, r)'s plane, which ApexMeasure folds
+    // onto z > 0: each s is mirrored there too (they all lie on the domain's
+    // side of (p, q, r), so mirroring keeps them on one side).
+    for (int e = 0; e < 3; ++e) {
+      if (!s || !s[e]) continue;
+      Vec3 ls = loc(f, s[e]);
+      if (ls[2] < 0) ls[2] = -ls[2];
+      const Vec3& a = lv[e];
+      const Vec3& b = lv[(e + 1) % 3];
+      const Vec3& c = lv[(e + 2) % 3];
+      const Vec3 u{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v{ls[0] - a[0], ls[1] - a[1], ls[2] - a[2]};
+      const Vec3 n{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+      const double sc = (c[0] - a[0]) * n[0] + (c[1] - a[1]) * n[1] + (c[2] - a[2]) * n[2];
+      if (!(sc != 0)) { bad = true; return; }
+      planes.push_back({a, n, sc > 0 ? 1.0 : -1.0, ls, u, e, c});
+    }
+    if (!wl || !side) return;
+    const double sgn = loc(f, side)[2] < 0 ? -1.0 : 1.0;
+    for (const WallTri& w : *wl) {
+      Wall k;
+      for (int i = 0; i < 3; ++i) {
+        k.v[i] = loc(f, &w[3 * i]);
+        k.v[i][2] *= sgn;
+      }
+      const Vec3 u{k.v[1][0] - k.v[0][0], k.v[1][1] - k.v[0][1], k.v[1][2] - k.v[0][2]};
+      const Vec3 v{k.v[2][0] - k.v[0][0], k.v[2][1] - k.v[0][1], k.v[2][2] - k.v[0][2]};
+      k.n = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+      k.nn = std::sqrt(k.n[0] * k.n[0] + k.n[1] * k.n[1] + k.n[2] * k.n[2]);
+      if (!(k.nn > 1e-12)) continue;
+      k.zmin = std::min({k.v[0][2], k.v[1][2], k.v[2][2]});
+      // A wall with no point above T's plane meets no open segment from g
+      // upward (its points are at z > 0): leaving it out changes nothing.
+      if (!(std::max({k.v[0][2], k.v[1][2], k.v[2][2]}) > 1e-9)) continue;
+      for (int a = 0; a < 2; ++a) {
+        k.lo[a] = std::min({k.v[0][a], k.v[1][a], k.v[2][a]});
+        k.hi[a] = std::max({k.v[0][a], k.v[1][a], k.v[2][a]});
+      }
+      walls.push_back(k);
+    }
+    // Lowest first: a forbidden apex is usually found at the first wall.
+    std::sort(walls.begin(), walls.end(), [](const Wall& a, const Wall& b) { return a.zmin < b.zmin; });
+  }
+
+  // Whether the open segment (g, x) meets wall k: it crosses the wall's
+  // plane clear by 1e-9 longest edges at both ends, at a point of the wall
+  // closed and grown by 1e-9 across its edges.  Closed, because a kept
+  // edge or vertex is in the mesh's skeleton too (no tet holds one inside),
+  // and grown, so that a segment through the edge two walls share is not
+  // let through by rounding (a search finds such cracks); what the growth
+  // forbids beyond a wall's free edge is a sliver whose apexes have
+  // neighbours as good outside it (alpha is continuous).
+  // (Former test: strictly inside by 1e-9, which let those cracks through.)
+  bool hits(const Wall& k, const Vec3& x) const {
+    constexpr double eps = 1e-9;
+    auto dot = [](const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; };
+    const Vec3 ga{g[0] - k.v[0][0], g[1] - k.v[0][1], g[2] - k.v[0][2]};
+    const Vec3 xa{x[0] - k.v[0][0], x[1] - k.v[0][1], x[2] - k.v[0][2]};
+    const double sa = dot(k.n, ga) / k.nn, sb = dot(k.n, xa) / k.nn;
+    if (!((sa > eps && sb < -eps) || (sa < -eps && sb > eps))) return false;
+    const double t = sa / (sa - sb);
+    const Vec3 y{g[0] + t * (x[0] - g[0]), g[1] + t * (x[1] - g[1]), g[2] + t * (x[2] - g[2])};
+    for (int i = 0; i < 3; ++i) {
+      const Vec3& a = k.v[i];
+      const Vec3& b = k.v[(i + 1) % 3];
+      const Vec3 ab{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ay{y[0] - a[0], y[1] - a[1], y[2] - a[2]};
+      const Vec3 c{ab[1] * ay[2] - ab[2] * ay[1], ab[2] * ay[0] - ab[0] * ay[2], ab[0] * ay[1] - ab[1] * ay[0]};
+      if (!(dot(c, k.n) > -eps * k.nn * std::sqrt(dot(ab, ab)))) return false;
+    }
+    return true;
+  }
+
+  // The point where the segment from g toward x first leaves the allowed
+  // set (x itself when it is allowed): g + t (x - g) for the smallest t at
+  // which it crosses a wall or a wedge plane, pulled back by 1e-9 so the
+  // segment to it crosses nothing.  The set is star-shaped from g (a prefix
+  // of an allowed segment is allowed; g lies inside every wedge), so this
+  // is a point of it: maximising alpha at proj(x) over x maximises over
+  // the set, on a continuous objective the searches handle better than a
+  // cliff.  False when x is below T's plane.
+  bool proj(Vec3& x) const {
+    if (!(x[2] >= 0)) return false;
+    double t = 1;
+    for (const Plane& pl : planes) {
+      const double vx = ((x[0] - pl.o[0]) * pl.n[0] + (x[1] - pl.o[1]) * pl.n[1] + (x[2] - pl.o[2]) * pl.n[2]) * pl.sign;
+      if (vx >= 0) continue;
+      const double vg = ((g[0] - pl.o[0]) * pl.n[0] + (g[1] - pl.o[1]) * pl.n[1] + (g[2] - pl.o[2]) * pl.n[2]) * pl.sign;
+      if (!(vg > 0)) return false;
+      t = std::min(t, vg / (vg - vx));
+    }
+    Vec3 y{g[0] + t * (x[0] - g[0]), g[1] + t * (x[1] - g[1]), g[2] + t * (x[2] - g[2])};
+    for (const Wall& k : walls) {
+      if (k.zmin >= y[2]) break;
+      const double lo0 = std::min(g[0], y[0]), hi0 = std::max(g[0], y[0]);
+      const double lo1 = std::min(g[1], y[1]), hi1 = std::max(g[1], y[1]);
+      if (k.hi[0] < lo0 || k.lo[0] > hi0 || k.hi[1] < lo1 || k.lo[1] > hi1) continue;
+      if (!hits(k, y)) continue;
+      const Vec3 ga{g[0] - k.v[0][0], g[1] - k.v[0][1], g[2] - k.v[0][2]};
+      const Vec3 ya{y[0] - k.v[0][0], y[1] - k.v[0][1], y[2] - k.v[0][2]};
+      const double sa = k.n[0] * ga[0] + k.n[1] * ga[1] + k.n[2] * ga[2];
+      const double sb = k.n[0] * ya[0] + k.n[1] * ya[1] + k.n[2] * ya[2];
+      const double u = std::max(0.0, sa / (sa - sb) - 1e-9);
+      for (int i = 0; i < 3; ++i) y[i] = g[i] + u * (y[i] - g[i]);
+    }
+    x = y;
+    return x[2] > 0;
+  }
+
+  bool ok(const Vec3& x) const {
+    const double tol = 1e-12;
+    if (!(x[2] >= 0)) return false;
     for (const Plane& pl : planes)
       if (((x[0] - pl.o[0]) * pl.n[0] + (x[1] - pl.o[1]) * pl.n[1] + (x[2] - pl.o[2]) * pl.n[2]) * pl.sign < -tol)
-        return -std::numeric_limits<double>::infinity();
+        return false;
+    const double lo0 = std::min(g[0], x[0]), hi0 = std::max(g[0], x[0]);
+    const double lo1 = std::min(g[1], x[1]), hi1 = std::max(g[1], x[1]);
+    for (const Wall& k : walls) {
+      if (k.zmin >= x[2]) break;  // the segment stays below this wall and every later one
+      if (k.hi[0] < lo0 || k.lo[0] > hi0 || k.hi[1] < lo1 || k.lo[1] > hi1) continue;  // apart in x or y
+      if (hits(k, x)) return false;
+    }
+    return true;
+  }
+};
+
+// The highest alpha of a tet on (p, q, r) with its apex allowed by c (see
+// SideConstraint), searched like best_apex: starts from the grid, the
+// closed-form candidates, points of each wedge, layers below the walls and
+// `start` (an allowed apex, world, or null), then Nelder–Mead and compass.
+// light: a lighter search (a 7^3 grid, three starts, shorter runs) for the
+// walled sides, which are many in raw meshes of thin parts.
+// best_at: the apex reaching the value (local; null: not wanted); start_local:
+// another start, local.
+double constrained_best_alpha(const Frame& f, const SideConstraint& c, const double* start, bool light = false,
+                              Vec3* best_at = nullptr, const Vec3* start_local = nullptr) {
+  const ApexMeasure g0{f, ApexObjective::Alpha};
+  // With walls the objective is alpha at the point proj gives (a point of
+  // the allowed set); with wedges only, a cliff outside them (as before).
+  const bool walled = !c.walls.empty();
+  auto g = [&](const Vec3& x) {
+    if (walled) {
+      Vec3 y = x;
+      if (!c.proj(y)) return -std::numeric_limits<double>::infinity();
+      return g0(y);
+    }
+    if (!c.ok(x)) return -std::numeric_limits<double>::infinity();
     return g0(x);
   };
   std::vector<std::pair<double, Vec3>> starts;
-  for (const Plane& pl : planes) starts.push_back({g(pl.ls), pl.ls});
-  for (const Vec3& c : candidates(f)) starts.push_back({g(c), c});
+  for (const SideConstraint::Plane& pl : c.planes) starts.push_back({g(pl.ls), pl.ls});
+  for (const Vec3& p : candidates(f)) starts.push_back({g(p), p});
+  if (start) {
+    Vec3 x = SideConstraint::loc(f, start);
+    x[2] = std::fabs(x[2]);
+    starts.push_back({g(x), x});
+  }
+  if (start_local) starts.push_back({g(*start_local), *start_local});
   const double x0 = std::min(0.0, f.cx) - 0.3, x1 = std::max(f.bx, f.cx) + 0.3;
   const double y0 = -0.5, y1 = f.cy + 0.6;
-  constexpr int kN = 11;
+  const int kN = light ? 7 : 11;
   for (int i = 0; i < kN; ++i)
     for (int j = 0; j < kN; ++j)
       for (int k = 0; k < kN; ++k) {
         const Vec3 x{x0 + (x1 - x0) * i / (kN - 1), y0 + (y1 - y0) * j / (kN - 1), 0.01 + 1.19 * k / (kN - 1)};
         starts.push_back({g(x), x});
       }
+  if (c.wall_h > 0) {
+    // Layers at the walls' scale: a thin slab holds few grid points, and
+    // where the facing wall curves or tilts away the best apexes lie beside
+    // the triangle, up to a few times higher than above its centroid.
+    constexpr int kW = 15;
+    for (double fr : {0.25, 0.5, 0.75, 0.95, 1.25, 1.5, 2.0, 2.5, 3.0})
+      for (int i = 0; i < kW; ++i)
+        for (int j = 0; j < kW; ++j) {
+          const Vec3 x{x0 + (x1 - x0) * i / (kW - 1), y0 + (y1 - y0) * j / (kW - 1), fr * c.wall_h};
+          starts.push_back({g(x), x});
+        }
+  }
   // Points of each wedge near its edge at every depth: the search box of a
   // thin wedge holds few grid points.
-  for (const Plane& pl : planes) {
-    const Vec3& a = lv[pl.e];
-    const Vec3& c = lv[(pl.e + 2) % 3];
+  for (const SideConstraint::Plane& pl : c.planes) {
+    const Vec3& a = pl.o;
+    const Vec3& cc = pl.c3;
     for (int i = 1; i < kN; ++i)
       for (int j = 1; j < kN; ++j) {
         const double ta = static_cast<double>(i) / kN, tb = static_cast<double>(j) / kN;
         Vec3 x;
-        for (int k = 0; k < 3; ++k) x[k] = a[k] + ta * pl.u[k] + tb * (c[k] - a[k] + pl.ls[k] - a[k]) / 2;
+        for (int k = 0; k < 3; ++k) x[k] = a[k] + ta * pl.u[k] + tb * (cc[k] - a[k] + pl.ls[k] - a[k]) / 2;
         starts.push_back({g(x), x});
       }
   }
-  const size_t k = std::min<size_t>(6, starts.size());
+  const size_t k = std::min<size_t>(light ? 3 : 6, starts.size());
   std::partial_sort(starts.begin(), starts.begin() + static_cast<std::ptrdiff_t>(k), starts.end(),
                     [](const auto& a, const auto& b) { return a.first > b.first; });
   double best = starts[0].first;
+  Vec3 bx = starts[0].second;
   for (size_t i = 0; i < k; ++i) {
     if (!(starts[i].first > -std::numeric_limits<double>::infinity())) continue;
     Vec3 x = starts[i].second;
-    double fx = nelder_mead(g, x, 0.05, 600);
-    fx = std::max(fx, nelder_mead(g, x, 0.005, 400));
-    fx = compass(g, x, fx, 1e-3, 1e-10);
-    best = std::max(best, fx);
+    double fx = nelder_mead(g, x, 0.05, light ? 300 : 600);
+    fx = std::max(fx, nelder_mead(g, x, 0.005, light ? 200 : 400));
+    fx = compass(g, x, fx, 1e-3, 1e-10, light ? 600 : 3000);
+    if (fx > best) { best = fx; bx = x; }
   }
+  if (walled) c.proj(bx);  // the point reaching the value
+  if (best_at) *best_at = bx;
   return std::max(best, 0.0);
+}
+
+}  // namespace
+
+double wedges_best_alpha(const double* p, const double* q, const double* r, const double* const s[3]) {
+  const Frame f(p, q, r);
+  if (f.degenerate) return 0;
+  const SideConstraint c(f, p, q, r, s, nullptr, nullptr);
+  if (c.bad) return 0;
+  return constrained_best_alpha(f, c, nullptr);
 }
 
 namespace {
@@ -671,6 +854,180 @@ int face_wedges(const TetMesh& m, int32_t packed, const double* s[3]) {
   return n;
 }
 
+// Walls facing one side of a kept face (issue 27: a wall one tet thick).
+// First a straight walk from T's centroid along its normal into the side,
+// through the tets, to the first kept face (or the domain's boundary): its
+// distance h.  Only when h < kThinRatio longest edges of T may a wall cap
+// the apex (the best apex of a fair triangle is about 0.8 longest edges
+// high), and only then are the kept faces around collected: a walk through
+// the tets of that side (never across a kept face) within kWallReach
+// longest edges of the centroid, every kept face met on the way a wall.
+// Both walks are only a choice of which kept triangles to test: any subset
+// of them gives a valid bound (fewer walls: a looser one), so rounding in
+// the walks cannot make the bound wrong.
+constexpr double kThinRatio = 1.0;
+constexpr double kWallReach = 3.5;
+constexpr int kWallTets = 4000;
+
+double side_centroid_normal(const TetMesh& m, int32_t side, double g[3], double dir[3], double& scale) {
+  const double* p[3];
+  face_points(m, side, p);
+  double u[3], v[3], n[3];
+  for (int k = 0; k < 3; ++k) { u[k] = p[1][k] - p[0][k]; v[k] = p[2][k] - p[0][k]; g[k] = (p[0][k] + p[1][k] + p[2][k]) / 3; }
+  n[0] = u[1] * v[2] - u[2] * v[1];
+  n[1] = u[2] * v[0] - u[0] * v[2];
+  n[2] = u[0] * v[1] - u[1] * v[0];
+  const double ln = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  auto d2 = [](const double* a, const double* b) {
+    return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+  };
+  scale = std::sqrt(std::max({d2(p[0], p[1]), d2(p[1], p[2]), d2(p[2], p[0])}));
+  if (!(ln > 0)) return 0;
+  const double* apex = m.point(m.tet(side >> 2)[side & 3]);
+  double dn = 0;
+  for (int k = 0; k < 3; ++k) dn += (apex[k] - p[0][k]) * n[k];
+  const double sg = dn < 0 ? -1.0 : 1.0;
+  for (int k = 0; k < 3; ++k) dir[k] = sg * n[k] / ln;
+  return ln;
+}
+
+// The straight walk: distance from the centroid along the normal to the
+// first kept face, +inf when beyond `limit` or the walk fails.
+double normal_wall_height(const TetMesh& m, int32_t side, double limit) {
+  double g[3], dir[3], scale;
+  if (!(side_centroid_normal(m, side, g, dir, scale) > 0)) return INFINITY;
+  int32_t cur = side >> 2, entry = side & 3;
+  for (int step = 0; step < 64; ++step) {
+    const int32_t* cv = m.tet(cur);
+    int exit = -1;
+    double te = INFINITY;
+    for (int k = 0; k < 4; ++k) {
+      if (k == entry) continue;
+      const double *a = m.point(cv[kFaceVertex[k][0]]), *b = m.point(cv[kFaceVertex[k][1]]),
+                   *c = m.point(cv[kFaceVertex[k][2]]), *o = m.point(cv[k]);
+      double u[3], v[3];
+      for (int i = 0; i < 3; ++i) { u[i] = b[i] - a[i]; v[i] = c[i] - a[i]; }
+      double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+      if ((o[0] - a[0]) * n[0] + (o[1] - a[1]) * n[1] + (o[2] - a[2]) * n[2] > 0)
+        for (double& x : n) x = -x;
+      const double den = n[0] * dir[0] + n[1] * dir[1] + n[2] * dir[2];
+      if (!(den > 0)) continue;
+      const double t = ((a[0] - g[0]) * n[0] + (a[1] - g[1]) * n[1] + (a[2] - g[2]) * n[2]) / den;
+      if (t < te) { te = t; exit = k; }
+    }
+    if (exit < 0 || !(te < limit)) return INFINITY;
+    const int32_t nb = m.adj[4 * static_cast<size_t>(cur) + static_cast<size_t>(exit)];
+    if (nb < 0 || (!m.face_mask.empty() && (m.face_mask[cur] & (1u << exit)))) return std::max(te, 0.0);
+    cur = nb >> 2;
+    entry = nb & 3;
+  }
+  return INFINITY;
+}
+
+// The walls of side `side` (empty when the side is not thin); h: the
+// normal walk's distance (+inf when not thin).
+void side_walls(const TetMesh& m, int32_t side, std::vector<WallTri>& walls, double& h) {
+  walls.clear();
+  double g[3], dir[3], scale;
+  h = INFINITY;
+  if (m.adj.empty() || !(side_centroid_normal(m, side, g, dir, scale) > 0)) return;
+  h = normal_wall_height(m, side, kThinRatio * scale);
+  if (!std::isfinite(h)) return;
+  const double reach2 = (kWallReach * scale) * (kWallReach * scale);
+  auto near = [&](int32_t t) {
+    const int32_t* v = m.tet(t);
+    for (int k = 0; k < 4; ++k) {
+      const double* x = m.point(v[k]);
+      if ((x[0] - g[0]) * (x[0] - g[0]) + (x[1] - g[1]) * (x[1] - g[1]) + (x[2] - g[2]) * (x[2] - g[2]) <= reach2)
+        return true;
+    }
+    return false;
+  };
+  std::vector<int32_t> stack{side >> 2};
+  std::unordered_set<int32_t> seen{side >> 2};
+  auto visited = [&](int32_t t) { return seen.count(t) > 0; };
+  while (!stack.empty() && static_cast<int>(seen.size()) < kWallTets) {
+    const int32_t t = stack.back();
+    stack.pop_back();
+    const int32_t* v = m.tet(t);
+    for (int k = 0; k < 4; ++k) {
+      if (4 * t + k == side) continue;
+      const int32_t nb = m.adj[4 * static_cast<size_t>(t) + static_cast<size_t>(k)];
+      if (nb < 0 || (!m.face_mask.empty() && (m.face_mask[t] & (1u << k)))) {
+        WallTri w;
+        for (int i = 0; i < 3; ++i) {
+          const double* x = m.point(v[kFaceVertex[k][i]]);
+          for (int c = 0; c < 3; ++c) w[3 * i + c] = x[c];
+        }
+        walls.push_back(w);
+        continue;
+      }
+      const int32_t u = nb >> 2;
+      if (visited(u) || !near(u)) continue;
+      seen.insert(u);
+      stack.push_back(u);
+    }
+  }
+}
+
+// The best alpha of side `side` with its apex inside the wedges s (may be
+// all null) and clear of the walls.  The side's bound without the walls
+// (the wedges' search, or best_apex) is found first: when its apex is clear
+// of the walls the walls do not bind and that value stands (walled = false);
+// otherwise the search with the walls, from the side's own tet and that
+// apex.
+double walled_side_best(const TetMesh& m, int32_t side, const double* const s[3], const std::vector<WallTri>& walls,
+                        double h, bool& walled) {
+  walled = false;
+  const double* p[3];
+  face_points(m, side, p);
+  const Frame f(p[0], p[1], p[2]);
+  if (f.degenerate) return 0;
+  const double* apex = m.point(m.tet(side >> 2)[side & 3]);
+  const SideConstraint free_c(f, p[0], p[1], p[2], s, nullptr, nullptr);
+  SideConstraint c(f, p[0], p[1], p[2], s, &walls, apex);
+  if (c.bad || free_c.bad) return 0;
+  c.wall_h = h / f.scale;
+  Vec3 at{};
+  double open;
+  if (!free_c.planes.empty()) {
+    open = constrained_best_alpha(f, free_c, nullptr, false, &at);
+  } else {
+    const ApexResult r = best_apex(p[0], p[1], p[2], ApexObjective::Alpha);
+    open = r.value;
+    at = SideConstraint::loc(f, r.apex);
+    at[2] = std::fabs(at[2]);
+  }
+  if (c.ok(at)) return open;
+  const double v = std::max(constrained_best_alpha(f, c, apex, false, nullptr, &at), std::max(0.0, tet_alpha(m, side >> 2)));
+  // Within the searches' exactness (1e-4, diagnose.hpp) of the side's own
+  // bound the walls are not said to bind, and that bound stands.
+  walled = v < open - 1e-4;
+  return walled ? v : open;
+}
+
+// A cheap achieved value for a walled side: its tet, and the closed-form
+// candidates (also at 0.9 h above their base points) that the constraint
+// allows.
+double walled_side_cheap(const TetMesh& m, int32_t side, const double* const s[3], const std::vector<WallTri>& walls,
+                         double h) {
+  double best = std::max(0.0, tet_alpha(m, side >> 2));
+  const double* p[3];
+  face_points(m, side, p);
+  const Frame f(p[0], p[1], p[2]);
+  if (f.degenerate) return best;
+  const double* apex = m.point(m.tet(side >> 2)[side & 3]);
+  const SideConstraint c(f, p[0], p[1], p[2], s, &walls, apex);
+  if (c.bad) return best;
+  const ApexMeasure g0{f, ApexObjective::Alpha};
+  for (const Vec3& x : candidates(f)) {
+    if (c.ok(x)) best = std::max(best, g0(x));
+    const Vec3 y{x[0], x[1], 0.9 * h / f.scale};
+    if (c.ok(y)) best = std::max(best, g0(y));
+  }
+  return best;
+}
+
 // A cheap achieved alpha of the tet on side `packed` of a constrained face:
 // the largest over that side's tet and the closed-form candidate apexes
 // that lie inside the side's wedges s (face_wedges; every candidate when it
@@ -726,11 +1083,29 @@ namespace {
 // sharp edges on that side (face_wedges), else the triangle's own (cached
 // by shape when cache is given; no cache: thread-safe).
 double side_best(const TetMesh& m, int32_t side,
-                 std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>* cache) {
+                 std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>* cache, SideBound* info = nullptr) {
   const double* p[3];
   face_points(m, side, p);
   const double* s[3];
-  if (face_wedges(m, side, s) > 0) return wedges_best_alpha(p[0], p[1], p[2], s);
+  const bool wedged = face_wedges(m, side, s) > 0;
+  std::vector<WallTri> walls;
+  double h;
+  side_walls(m, side, walls, h);
+  if (info) {
+    info->wedged = wedged;
+    info->walled = false;
+    info->wall_distance = NAN;
+  }
+  if (!walls.empty()) {
+    bool walled;
+    const double v = walled_side_best(m, side, wedged ? s : nullptr, walls, h, walled);
+    if (info && walled) {
+      info->walled = true;
+      info->wall_distance = h;
+    }
+    return v;
+  }
+  if (wedged) return wedges_best_alpha(p[0], p[1], p[2], s);
   std::pair<int64_t, int64_t> key;
   if (!shape_key(Frame(p[0], p[1], p[2]), key)) return 0;  // degenerate
   if (cache)
@@ -740,10 +1115,23 @@ double side_best(const TetMesh& m, int32_t side,
   return v;
 }
 
+// Whether side `side` is thin (its normal walk meets a kept face within
+// kThinRatio longest edges): then side_walls collects walls for it.
+bool side_thin(const TetMesh& m, int32_t side) {
+  double g[3], dir[3], scale;
+  if (m.adj.empty() || !(side_centroid_normal(m, side, g, dir, scale) > 0)) return false;
+  return std::isfinite(normal_wall_height(m, side, kThinRatio * scale));
+}
+
 // MeshBound::below_at_least.  cheap: each face's achieved alpha, at most
 // the best of each of its sides; cache: best alpha by triangle shape, as the
 // bound's own search filled it.
-std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces,
+// Sides already searched (side_best's value by packed side), shared by the
+// diagnosis, the bound's search and the count floor: walled sides are
+// searched once (not cached by shape, and each costs milliseconds).
+using SideCache = std::unordered_map<int32_t, SideBound>;
+
+std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces, const SideCache& known,
                                    const std::vector<double>& cheap,
                                    std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>& cache,
                                    int threads) {
@@ -782,13 +1170,16 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
       continue;
     }
     const double* s[3];
-    if (face_wedges(m, sides[j], s) > 0) continue;
+    if (face_wedges(m, sides[j], s) > 0 || side_thin(m, sides[j])) continue;
     const double* p[3];
     face_points(m, sides[j], p);
     std::pair<int64_t, int64_t> key;
     if (!shape_key(Frame(p[0], p[1], p[2]), key)) best[j] = 0;
     else if (const auto it = cache.find(key); it != cache.end()) best[j] = it->second;
   }
+  for (size_t j = 0; j < sides.size(); ++j)
+    if (best[j] < 0)
+      if (const auto it = known.find(sides[j]); it != known.end()) best[j] = it->second.alpha;
   detail::parallel_for_each(static_cast<int64_t>(sides.size()), threads, [&](int64_t j) {
     if (best[j] < 0) best[j] = side_best(m, sides[j], nullptr);
   });
@@ -852,7 +1243,8 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
 
 }  // namespace
 
-MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
+namespace {
+MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, SideCache& known) {
   const auto t0 = std::chrono::steady_clock::now();
   MeshBound mb;
   const std::vector<int32_t> faces = constrained_faces(m, threads);
@@ -866,7 +1258,7 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   // Faces with a sharp boundary edge (face_wedges): their alpha is bounded
   // with the apex inside the wedges, and only the achieved value (the tet
   // there now, which lies inside them) is a cheap value that respects them.
-  std::vector<uint8_t> wedged(nf, 0);
+  std::vector<uint8_t> wedged(nf, 0), walled(nf, 0);
   detail::parallel_for_each(static_cast<int64_t>(nf), threads, [&](int64_t i) {
     const double* p[3];
     face_points(m, faces[i], p);
@@ -879,7 +1271,22 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
     const double* s[2][3] = {{nullptr, nullptr, nullptr}, {nullptr, nullptr, nullptr}};
     for (int k = 0; k < 2; ++k)
       if (side[k] >= 0 && face_wedges(m, side[k], s[k]) > 0) wedged[i] = 1;
-    if (wedged[i]) {
+    // Thin sides (side_walls): walls facing them may cap the apex, and the
+    // cheap value respects them.
+    std::vector<WallTri> walls[2];
+    double h[2] = {INFINITY, INFINITY};
+    for (int k = 0; k < 2; ++k)
+      if (side[k] >= 0) {
+        side_walls(m, side[k], walls[k], h[k]);
+        if (!walls[k].empty()) walled[i] = 1;
+      }
+    if (walled[i]) {
+      cheap[0][i] = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 2; ++k)
+        if (side[k] >= 0)
+          cheap[0][i] = std::min(cheap[0][i], walls[k].empty() ? side_cheap_alpha(m, side[k], s[k])
+                                                               : walled_side_cheap(m, side[k], s[k], walls[k], h[k]));
+    } else if (wedged[i]) {
       cheap[0][i] = side_cheap_alpha(m, side[0], s[0]);
       if (side[1] >= 0) cheap[0][i] = std::min(cheap[0][i], side_cheap_alpha(m, side[1], s[1]));
     } else {
@@ -901,6 +1308,7 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   size_t arg[kApexObjectives] = {};
   std::vector<size_t> heap(nf);
   std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> cache[kApexObjectives];  // shape -> best value
+  double wall_d = NAN;  // the alpha bound's side is capped by a wall this far (NaN: not)
   for (int o = 0; o < nobj; ++o) {
     const ApexObjective obj = static_cast<ApexObjective>(o);
     // The triangles by increasing cheap score (ties by index), taken from a
@@ -935,13 +1343,24 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
       if (capped && examined++ >= kDihedralExamined) break;
       const double* p[3];
       face_points(m, faces[i], p);
-      if (o == 0 && wedged[i]) {
-        double found = side_best(m, faces[i], &cache[o]);
-        if (const int32_t nb = m.adj[static_cast<size_t>(faces[i])]; nb >= 0)
-          found = std::min(found, side_best(m, nb, &cache[o]));
+      if (o == 0 && (wedged[i] || walled[i])) {
+        auto side_value = [&](int32_t side) {
+          if (const auto it = known.find(side); it != known.end()) return it->second;
+          SideBound sb;
+          sb.alpha = side_best(m, side, &cache[o], &sb);
+          known.emplace(side, sb);
+          return sb;
+        };
+        const SideBound first = side_value(faces[i]);
+        double found = first.alpha;
+        double d = first.wall_distance;
+        if (const int32_t nb = m.adj[static_cast<size_t>(faces[i])]; nb >= 0) {
+          const SideBound other = side_value(nb);
+          if (other.alpha < found) { found = other.alpha; d = other.wall_distance; }
+        }
         const double v = std::max(cheap[o][i], found);
         refined[i] = 1;
-        if (v < cur) { cur = v; arg[o] = i; }
+        if (v < cur) { cur = v; arg[o] = i; wall_d = d; }
         continue;
       }
       if (quick_score(p[0], p[1], p[2], obj) >= cur - tol) continue;
@@ -957,12 +1376,13 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
         refined[i] = 1;
       }
       const double v = std::max(cheap[o][i], to_public(obj, found));
-      if (v < cur) { cur = v; arg[o] = i; }
+      if (v < cur) { cur = v; arg[o] = i; if (o == 0) wall_d = NAN; }
     }
     result[o] = cur;
     mb.measure[static_cast<size_t>(measure_of(obj))] = to_public(obj, cur);
   }
   mb.alpha = result[0];
+  mb.alpha_wall_d = wall_d;
   mb.dihedral_min = result[1];
   mb.dihedral_max = -result[2];
   mb.alpha_tet = faces[arg[0]] >> 2;
@@ -971,9 +1391,21 @@ MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
   face_points(m, faces[arg[0]], p);
   for (int k = 0; k < 3; ++k) mb.alpha_location[k] = (p[0][k] + p[1][k] + p[2][k]) / 3;
   for (uint8_t r : refined) mb.refined += r;
-  mb.below_at_least = count_bound(m, faces, cheap[0], cache[0], threads);
+  mb.below_at_least = count_bound(m, faces, known, cheap[0], cache[0], threads);
   mb.seconds = seconds_since(t0);
   return mb;
+}
+}  // namespace
+
+MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
+  SideCache known;
+  return mesh_bound_impl(m, threads, all_measures, known);
+}
+
+SideBound side_bound(const TetMesh& m, int32_t packed) {
+  SideBound sb;
+  sb.alpha = side_best(m, packed, nullptr, &sb);
+  return sb;
 }
 
 const char* tet_class_name(TetClass c) {
@@ -993,7 +1425,8 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   const int32_t nt = m.nt();
   d.tets = nt;
   d.tet_class.assign(static_cast<size_t>(nt), static_cast<uint8_t>(TetClass::Good));
-  std::unordered_map<int32_t, double> face_best;  // canonical packed face -> best alpha
+  std::unordered_map<int32_t, SideBound> face_best;  // canonical packed face -> best alpha
+  std::vector<int32_t> searched_sides;                 // keys of face_best that side_best filled
   std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> shape_best;  // similar triangles
   // The poor tets, found over parallel blocks (in index order).
   const std::vector<int32_t> poor = detail::parallel_select(
@@ -1022,39 +1455,44 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
       const int32_t nb = m.adj[static_cast<size_t>(packed)];
       const double* ws[3];
       const bool wedge = face_wedges(m, packed, ws) > 0;
-      // The face's own bound is the same on both sides; a side's wedges are
-      // its own, so a wedged face is keyed by this side.
-      const int32_t key = nb >= 0 && !wedge ? std::min(packed, nb) : packed;
+      const bool thin = side_thin(m, packed);
+      // The face's own bound is the same on both sides; a side's wedges and
+      // walls are its own, so a wedged or thin face is keyed by this side.
+      const int32_t key = nb >= 0 && !wedge && !thin ? std::min(packed, nb) : packed;
       auto it = face_best.find(key);
-      double best;
+      SideBound sb;
       if (it != face_best.end()) {
-        best = it->second;
+        sb = it->second;
       } else {
         const double* fp[3];
         face_points(m, packed, fp);
-        if (wedge) {  // inside the wedges of its sharp edges (face_wedges)
-          best = wedges_best_alpha(fp[0], fp[1], fp[2], ws);
+        if (wedge || thin) {  // inside the wedges of its sharp edges (face_wedges), clear of the walls (side_walls)
+          sb.alpha = side_best(m, packed, nullptr, &sb);
           d.faces_searched++;
+          searched_sides.push_back(packed);
         } else if (cheap_apex_value(fp[0], fp[1], fp[2]) >= opt.threshold) {
-          best = NAN;  // an apex reaching the threshold exists: not a lock
+          sb.alpha = NAN;  // an apex reaching the threshold exists: not a lock
         } else {
           std::pair<int64_t, int64_t> shape;
           const bool keyed = shape_key(Frame(fp[0], fp[1], fp[2]), shape);
           auto sit = keyed ? shape_best.find(shape) : shape_best.end();
           if (sit != shape_best.end()) {
-            best = sit->second;
+            sb.alpha = sit->second;
           } else {
-            best = best_apex(fp[0], fp[1], fp[2]).value;
+            sb.alpha = best_apex(fp[0], fp[1], fp[2]).value;
             d.faces_searched++;
-            if (keyed) shape_best.emplace(shape, best);
+            if (keyed) shape_best.emplace(shape, sb.alpha);
           }
         }
-        face_best.emplace(key, best);
+        face_best.emplace(key, sb);
       }
+      const double best = sb.alpha;
       if (!std::isnan(best) && (std::isnan(p.best_alpha) || best < p.best_alpha)) {
         p.best_alpha = best;
         p.face = f;
-        p.wedged = wedge;
+        p.wedged = sb.wedged;
+        p.walled = sb.walled;
+        p.wall_d = sb.wall_distance;
       }
     }
     // Two faces of t on the domain boundary (no tet beyond either): t is the
@@ -1082,7 +1520,8 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
       if (!std::isnan(p.wedge_alpha) && (std::isnan(p.best_alpha) || p.wedge_alpha <= p.best_alpha + 1e-9)) {
         p.best_alpha = std::min(p.best_alpha, p.wedge_alpha);
         p.face = p.wedge_face;
-        p.wedged = false;  // said with the angle instead
+        p.wedged = p.walled = false;  // said with the angle instead
+        p.wall_d = NAN;
       } else {
         p.wedge_alpha = p.wedge_deg = NAN;  // no tighter than the triangle's own bound
         p.wedge_face = -1;
@@ -1100,7 +1539,9 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     return x.alpha < y.alpha || (x.alpha == y.alpha && x.tet < y.tet);
   });
   if (opt.mesh_bound) {
-    d.bound = mesh_bound(m, opt.threads, opt.all_measures);
+    SideCache known;  // the wedged and thin sides searched above
+    for (const int32_t side : searched_sides) known.emplace(side, face_best.at(side));
+    d.bound = mesh_bound_impl(m, opt.threads, opt.all_measures, known);
     // A poor tet's wedge bound holds for the whole mesh too.
     for (const PoorTet& p : d.poor)
       if (!std::isnan(p.wedge_alpha) && !(p.wedge_alpha >= d.bound.alpha)) {
@@ -1109,6 +1550,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         d.bound.alpha_tet = p.tet;
         d.bound.alpha_face = p.wedge_face;
         d.bound.alpha_wedge_deg = p.wedge_deg;
+        d.bound.alpha_wall_d = NAN;
         const double* fp[3];
         face_points(m, 4 * p.tet + p.wedge_face, fp);
         for (int k = 0; k < 3; ++k) d.bound.alpha_location[k] = (fp[0][k] + fp[1][k] + fp[2][k]) / 3;
@@ -1147,7 +1589,9 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
       << fixed(d.bound.alpha, "%.4f") << ", min dihedral ≤ " << fixed(d.bound.dihedral_min, "%.2f")
       << "°, max dihedral ≥ " << fixed(d.bound.dihedral_max, "%.2f") << "°  (triangle of tet "
       << d.bound.alpha_tet + 1 << " at " << fixed(d.bound.alpha_location[0], "%.6g") << " "
-      << fixed(d.bound.alpha_location[1], "%.6g") << " " << fixed(d.bound.alpha_location[2], "%.6g") << ")\n";
+      << fixed(d.bound.alpha_location[1], "%.6g") << " " << fixed(d.bound.alpha_location[2], "%.6g");
+    if (!std::isnan(d.bound.alpha_wall_d)) o << ", capped by the wall facing it at d = " << fixed(d.bound.alpha_wall_d, "%.4g");
+    o << ")\n";
     const auto& b = d.bound.measure;
     auto at = [&](Measure k) { return b[static_cast<size_t>(k)]; };
     if (!std::isnan(at(Measure::SineMin)))
@@ -1167,6 +1611,9 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
       << ": " << tet_class_name(p.cls);
     if (p.cls == TetClass::LockedByTriangle && !std::isnan(p.wedge_alpha))
       o << " and the boundary face beside it, meeting at " << fixed(p.wedge_deg, "%.1f") << "° (best possible α = "
+        << fixed(p.best_alpha, "%.4f") << ")";
+    else if (p.cls == TetClass::LockedByTriangle && p.walled)
+      o << " and the wall facing it, d = " << fixed(p.wall_d, "%.4g") << " (best possible α = "
         << fixed(p.best_alpha, "%.4f") << ")";
     else if (p.cls == TetClass::LockedByTriangle && p.wedged)
       o << " and the sharp boundary edges around it (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
@@ -1192,7 +1639,8 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
     << ", \"max_dihedral_lower_bound\": " << num(d.bound.dihedral_max) << ", \"alpha_tet\": " << d.bound.alpha_tet
     << ", \"alpha_face\": " << d.bound.alpha_face << ", \"alpha_location\": [" << num(d.bound.alpha_location[0])
     << ", " << num(d.bound.alpha_location[1]) << ", " << num(d.bound.alpha_location[2])
-    << "], \"alpha_wedge_deg\": " << num(d.bound.alpha_wedge_deg) << ", \"measures\": {";
+    << "], \"alpha_wedge_deg\": " << num(d.bound.alpha_wedge_deg) << ", \"alpha_wall_d\": " << num(d.bound.alpha_wall_d)
+    << ", \"measures\": {";
   // Every per-tet measure's bound by its key (null: not computed); the face
   // measures have none (diagnose.hpp, MeshBound::measure).
   for (int k = 0; k < kTetMeasureCount; ++k)
@@ -1219,7 +1667,7 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
       << ", \"alpha\": " << num(p.alpha) << ", \"dihedral_min\": " << num(p.dihedral_min)
       << ", \"dihedral_max\": " << num(p.dihedral_max) << ", \"kind\": " << p.kind
       << ", \"best_alpha\": " << num(p.best_alpha) << ", \"face\": " << p.face
-      << ", \"wedge_deg\": " << num(p.wedge_deg) << ", \"centroid\": ["
+      << ", \"wedge_deg\": " << num(p.wedge_deg) << ", \"wall_d\": " << num(p.wall_d) << ", \"centroid\": ["
       << num(p.centroid[0]) << ", " << num(p.centroid[1]) << ", " << num(p.centroid[2]) << "]}";
   }
   o << (n ? "\n" + pad : "") << "]\n}";

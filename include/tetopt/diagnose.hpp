@@ -44,10 +44,30 @@
 // refines lazily, only the constrained faces of tets below the threshold whose
 // cheap value is below the threshold.
 //
+// Walls (issue 27, item 2: a wall one tet thick).  A side of a kept face
+// sees more than its triangle: the tet standing on T there, with apex D,
+// contains the open segment from T's centroid g to D (its points have
+// positive barycentric coordinates), and no tet of a conforming mesh that
+// keeps the triangles has a point of a kept triangle inside it.  So D is
+// impossible whenever that segment crosses a kept triangle, and
+//     best_alpha(T, side) <= max alpha(T, D) over D whose segment from g
+//                            crosses no kept triangle
+// for any set of kept triangles tested: fewer only loosens it, so the sets
+// chosen need no proof of coverage.  Tested: the kept faces within 3.5
+// longest edges reachable through that side's tets, when a walk along T's
+// normal meets one within one longest edge (side_bound; a crossing counts
+// when clear of the wall's plane by 1e-9 longest edges, at a point of the
+// wall grown by 1e-9 across its edges, so no search escapes through the
+// edge two walls share).  The allowed set is star-shaped
+// from g, so the search maximises alpha at the first wall point on the
+// segment toward each trial apex.  A slab d thick over triangles of size L
+// caps the apex near height d: alpha about sqrt(6) d / L for d << L.
+//
 // Classification of a tet t with alpha(t) < gamma (the threshold):
 //   LockedByTriangle    t has a constrained face T with best_alpha(T) < gamma:
 //                       no method that keeps T can lift T's tet to gamma (it
-//                       may still be improved up to best_alpha(T)).
+//                       may still be improved up to best_alpha(T)); T's
+//                       bound on t's side counts its wedges and walls.
 //   LockedByNeighbours  not the above, and all four vertices of t are
 //                       constrained (kind 4): smoothing cannot move any of
 //                       them, only a topological change can help, and the
@@ -123,6 +143,18 @@ double wedges_best_alpha(const double* p, const double* q, const double* r, cons
 /// MaxDihedral).
 double cheap_apex_value(const double* a, const double* b, const double* c, ApexObjective obj = ApexObjective::Alpha);
 
+/// The bound on one side of a kept face: the best alpha of a tet standing
+/// on it there, in any mesh keeping the kept triangles.
+struct SideBound {
+  double alpha = NAN;
+  bool wedged = false;          ///< its apex kept inside the wedges of sharp edges (face_wedges)
+  bool walled = false;          ///< its apex kept clear of walls facing it (see the essay)
+  double wall_distance = NAN;   ///< walled: distance from the centroid along the normal to the first wall
+};
+/// packed = 4 t + f, f a constrained face of tet t: the side is t's.
+/// Requires m's topology.
+SideBound side_bound(const TetMesh& m, int32_t packed);
+
 /// Mesh-wide bound over all constrained triangles (each counted once).
 struct MeshBound {
   int64_t triangles = 0;          ///< constrained triangles
@@ -147,6 +179,9 @@ struct MeshBound {
   /// diagnose() only: when a poor tet's wedge bound (PoorTet::wedge_alpha)
   /// is below every triangle's, alpha is that bound and this its angle.
   double alpha_wedge_deg = NAN;
+  /// When the alpha bound's triangle side is capped by a wall facing it
+  /// (side_bound), the wall's distance along its normal; NaN otherwise.
+  double alpha_wall_d = NAN;
   int64_t refined = 0;            ///< triangles searched in full (all objectives)
   /// The fewest tets below alpha kCountThresholds[k] that any mesh keeping
   /// the constrained triangles has (-1: not computed).  Each side of a kept
@@ -200,6 +235,11 @@ struct PoorTet {
   /// best_alpha comes from a face on the domain boundary with sharp convex
   /// edges, its apex kept inside the wedges there (wedges_best_alpha).
   bool wedged = false;
+  /// best_alpha comes from a face whose side is capped by kept triangles
+  /// facing it (side_bound: a wall one tet thick); wall_d is the distance
+  /// from the face's centroid to the first of them along its normal.
+  bool walled = false;
+  double wall_d = NAN;
   double centroid[3] = {0, 0, 0};
 };
 
