@@ -614,6 +614,7 @@ py::object improve_diagnosis(const TetMesh& m, const tetopt::ImproveOptions& opt
     dopt.threshold = opt.threshold;
     dopt.mesh_bound = true;
     dopt.all_measures = opt.objective != tetopt::Objective::Alpha;
+    dopt.walls = false;  // as tetopt improve's summary (DiagnoseOptions::walls)
     const tetopt::Diagnosis d = tetopt::diagnose(m, dopt);
     double worst = INFINITY;
     for (int32_t t = 0; t < m.nt(); ++t) worst = std::min(worst, tetopt::tet_alpha(m, t));

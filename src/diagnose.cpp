@@ -926,10 +926,11 @@ double normal_wall_height(const TetMesh& m, int32_t side, double limit) {
 
 // The walls of side `side` (empty when the side is not thin); h: the
 // normal walk's distance (+inf when not thin).
-void side_walls(const TetMesh& m, int32_t side, std::vector<WallTri>& walls, double& h) {
+void side_walls(const TetMesh& m, int32_t side, std::vector<WallTri>& walls, double& h, bool on = true) {
   walls.clear();
   double g[3], dir[3], scale;
   h = INFINITY;
+  if (!on) return;
   if (m.adj.empty() || !(side_centroid_normal(m, side, g, dir, scale) > 0)) return;
   h = normal_wall_height(m, side, kThinRatio * scale);
   if (!std::isfinite(h)) return;
@@ -1083,14 +1084,15 @@ namespace {
 // sharp edges on that side (face_wedges), else the triangle's own (cached
 // by shape when cache is given; no cache: thread-safe).
 double side_best(const TetMesh& m, int32_t side,
-                 std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>* cache, SideBound* info = nullptr) {
+                 std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>* cache, SideBound* info = nullptr,
+                 bool walls_on = true) {
   const double* p[3];
   face_points(m, side, p);
   const double* s[3];
   const bool wedged = face_wedges(m, side, s) > 0;
   std::vector<WallTri> walls;
   double h;
-  side_walls(m, side, walls, h);
+  side_walls(m, side, walls, h, walls_on);
   if (info) {
     info->wedged = wedged;
     info->walled = false;
@@ -1117,7 +1119,8 @@ double side_best(const TetMesh& m, int32_t side,
 
 // Whether side `side` is thin (its normal walk meets a kept face within
 // kThinRatio longest edges): then side_walls collects walls for it.
-bool side_thin(const TetMesh& m, int32_t side) {
+bool side_thin(const TetMesh& m, int32_t side, bool on = true) {
+  if (!on) return false;
   double g[3], dir[3], scale;
   if (m.adj.empty() || !(side_centroid_normal(m, side, g, dir, scale) > 0)) return false;
   return std::isfinite(normal_wall_height(m, side, kThinRatio * scale));
@@ -1134,7 +1137,7 @@ using SideCache = std::unordered_map<int32_t, SideBound>;
 std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>& faces, const SideCache& known,
                                    const std::vector<double>& cheap,
                                    std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>& cache,
-                                   int threads) {
+                                   int threads, bool walls_on) {
   constexpr double kTol = 1e-4;  // the alpha search's exactness (diagnose.hpp)
   const double top = kCountThresholds.back();
   // The sides of the faces whose cheap value leaves them in doubt, each
@@ -1170,7 +1173,7 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
       continue;
     }
     const double* s[3];
-    if (face_wedges(m, sides[j], s) > 0 || side_thin(m, sides[j])) continue;
+    if (face_wedges(m, sides[j], s) > 0 || side_thin(m, sides[j], walls_on)) continue;
     const double* p[3];
     face_points(m, sides[j], p);
     std::pair<int64_t, int64_t> key;
@@ -1181,7 +1184,7 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
     if (best[j] < 0)
       if (const auto it = known.find(sides[j]); it != known.end()) best[j] = it->second.alpha;
   detail::parallel_for_each(static_cast<int64_t>(sides.size()), threads, [&](int64_t j) {
-    if (best[j] < 0) best[j] = side_best(m, sides[j], nullptr);
+    if (best[j] < 0) best[j] = side_best(m, sides[j], nullptr, nullptr, walls_on);
   });
   // Whether x lies strictly on side b's side of its triangle.
   auto on_side = [&](int32_t b, const double* x) {
@@ -1244,7 +1247,7 @@ std::array<int64_t, 3> count_bound(const TetMesh& m, const std::vector<int32_t>&
 }  // namespace
 
 namespace {
-MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, SideCache& known) {
+MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, SideCache& known, bool walls_on) {
   const auto t0 = std::chrono::steady_clock::now();
   MeshBound mb;
   const std::vector<int32_t> faces = constrained_faces(m, threads);
@@ -1277,7 +1280,7 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
     double h[2] = {INFINITY, INFINITY};
     for (int k = 0; k < 2; ++k)
       if (side[k] >= 0) {
-        side_walls(m, side[k], walls[k], h[k]);
+        side_walls(m, side[k], walls[k], h[k], walls_on);
         if (!walls[k].empty()) walled[i] = 1;
       }
     if (walled[i]) {
@@ -1347,7 +1350,7 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
         auto side_value = [&](int32_t side) {
           if (const auto it = known.find(side); it != known.end()) return it->second;
           SideBound sb;
-          sb.alpha = side_best(m, side, &cache[o], &sb);
+          sb.alpha = side_best(m, side, &cache[o], &sb, walls_on);
           known.emplace(side, sb);
           return sb;
         };
@@ -1391,15 +1394,15 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
   face_points(m, faces[arg[0]], p);
   for (int k = 0; k < 3; ++k) mb.alpha_location[k] = (p[0][k] + p[1][k] + p[2][k]) / 3;
   for (uint8_t r : refined) mb.refined += r;
-  mb.below_at_least = count_bound(m, faces, known, cheap[0], cache[0], threads);
+  mb.below_at_least = count_bound(m, faces, known, cheap[0], cache[0], threads, walls_on);
   mb.seconds = seconds_since(t0);
   return mb;
 }
 }  // namespace
 
-MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures) {
+MeshBound mesh_bound(const TetMesh& m, int threads, bool all_measures, bool walls) {
   SideCache known;
-  return mesh_bound_impl(m, threads, all_measures, known);
+  return mesh_bound_impl(m, threads, all_measures, known, walls);
 }
 
 SideBound side_bound(const TetMesh& m, int32_t packed) {
@@ -1455,7 +1458,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
       const int32_t nb = m.adj[static_cast<size_t>(packed)];
       const double* ws[3];
       const bool wedge = face_wedges(m, packed, ws) > 0;
-      const bool thin = side_thin(m, packed);
+      const bool thin = side_thin(m, packed, opt.walls);
       // The face's own bound is the same on both sides; a side's wedges and
       // walls are its own, so a wedged or thin face is keyed by this side.
       const int32_t key = nb >= 0 && !wedge && !thin ? std::min(packed, nb) : packed;
@@ -1467,7 +1470,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         const double* fp[3];
         face_points(m, packed, fp);
         if (wedge || thin) {  // inside the wedges of its sharp edges (face_wedges), clear of the walls (side_walls)
-          sb.alpha = side_best(m, packed, nullptr, &sb);
+          sb.alpha = side_best(m, packed, nullptr, &sb, opt.walls);
           d.faces_searched++;
           searched_sides.push_back(packed);
         } else if (cheap_apex_value(fp[0], fp[1], fp[2]) >= opt.threshold) {
@@ -1541,7 +1544,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   if (opt.mesh_bound) {
     SideCache known;  // the wedged and thin sides searched above
     for (const int32_t side : searched_sides) known.emplace(side, face_best.at(side));
-    d.bound = mesh_bound_impl(m, opt.threads, opt.all_measures, known);
+    d.bound = mesh_bound_impl(m, opt.threads, opt.all_measures, known, opt.walls);
     // A poor tet's wedge bound holds for the whole mesh too.
     for (const PoorTet& p : d.poor)
       if (!std::isnan(p.wedge_alpha) && !(p.wedge_alpha >= d.bound.alpha)) {

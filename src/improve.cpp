@@ -871,7 +871,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
     // bound (mesh_bound) runs the rounds and the polish once more.
     if (opt.allow_insert && opt.remesh && opt.objective == Objective::Alpha && !d.stopped()) {
       const auto tb = Clock::now();
-      const double ceiling = mesh_bound(m, opt.threads).alpha;
+      const double ceiling = mesh_bound(m, opt.threads, false, /*walls=*/false).alpha;
       rep.seconds_check += since(tb);
       if (d.score().first < kAgainBelow * ceiling) {
         if (log)

@@ -663,6 +663,17 @@ TEST(Diagnose, ThinSlabCapsTheApex) {
   // is above 0.3.  Without the walls the floor was 0.
   EXPECT_EQ(dg.bound.below_at_least[2], 144);
   EXPECT_EQ(dg.bound.below_at_least[1], 0);
+  // With the walls off (DiagnoseOptions::walls, mesh_bound's walls: what
+  // tetopt improve's summary computes) the bound is the triangles' own and
+  // the floor at 0.3 is 0 again; nothing is said to be walled.
+  DiagnoseOptions no_walls;
+  no_walls.walls = false;
+  const Diagnosis open_dg = diagnose(m, no_walls);
+  EXPECT_NEAR(open_dg.bound.alpha, old_like.alpha, 1e-4);
+  EXPECT_NEAR(mesh_bound(m, 1, false, false).alpha, old_like.alpha, 1e-4);
+  EXPECT_EQ(open_dg.bound.below_at_least[2], 0);
+  EXPECT_TRUE(std::isnan(open_dg.bound.alpha_wall_d));
+  for (const PoorTet& p : open_dg.poor) EXPECT_FALSE(p.walled);
   // improve with insertion and removal keeps the triangles: it stays under
   // the bound and over the count floor.
   TetMesh w = m;
