@@ -205,6 +205,35 @@ void size_field(const TetMesh& m, double size, std::vector<double>& h) {
     if (raw[v] && n_all[v]) h[v] = std::max(h[v], g[v]);
 }
 
+// What remesh_pass and refine_pass set up alike: the topology and the
+// vertex stars, the size field when h does not cover every vertex, an
+// editor's options, and the split's acceptance (floor: the worst at the
+// start, so the worst alpha never falls).
+Status prepare_sized(TetMesh& m, std::vector<double>& h, double size) {
+  if (!topology_current(m))
+    if (Status s = build_topology(m); !s) return s;
+  ensure_vertex_tets(m);
+  if (h.size() != static_cast<size_t>(m.nv())) size_field(m, size, h);
+  return Status::success();
+}
+
+TopoOptions editor_options(Objective objective, const Guard* guard, const std::atomic<bool>* stop) {
+  TopoOptions to;
+  to.objective = objective;
+  to.guard = guard;
+  to.stop = stop;
+  return to;
+}
+
+Acceptance acceptance(const TopoEditor& ed, double cap, double ratio) {
+  Acceptance acc;
+  acc.on = true;
+  acc.floor = ed.min_cached();
+  acc.cap = cap;
+  acc.ratio = ratio;
+  return acc;
+}
+
 struct EdgeRef {
   double l;      // length over the size
   uint64_t key;  // edge_key(a, b)
@@ -217,22 +246,10 @@ struct EdgeRef {
 RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   RemeshStats st;
-  if (!topology_current(m)) {
-    st.status = build_topology(m);
-    if (!st.status) return st;
-  }
-  ensure_vertex_tets(m);
-  if (h.size() != static_cast<size_t>(m.nv())) size_field(m, o.size, h);
-  TopoOptions to;
-  to.objective = o.objective;
-  to.guard = o.guard;
-  to.stop = o.stop;
-  TopoEditor ed(m, to);
-  Acceptance acc;
-  acc.on = true;
-  acc.floor = ed.min_cached();
-  acc.cap = o.cap;
-  acc.ratio = o.ratio;
+  st.status = prepare_sized(m, h, o.size);
+  if (!st.status) return st;
+  TopoEditor ed(m, editor_options(o.objective, o.guard, o.stop));
+  const Acceptance acc = acceptance(ed, o.cap, o.ratio);
   std::vector<EdgeRef> edges;
   auto collect = [&](bool longer) {
     edges.clear();
@@ -318,22 +335,10 @@ RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions&
 RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   RefineStats st;
-  if (!topology_current(m)) {
-    st.status = build_topology(m);
-    if (!st.status) return st;
-  }
-  ensure_vertex_tets(m);
-  if (h.size() != static_cast<size_t>(m.nv())) size_field(m, o.size, h);
-  TopoOptions to;
-  to.objective = o.objective;
-  to.guard = o.guard;
-  to.stop = o.stop;
-  TopoEditor ed(m, to);
-  Acceptance acc;
-  acc.on = true;
-  acc.floor = ed.min_cached();
-  acc.cap = o.cap;
-  acc.ratio = o.ratio;
+  st.status = prepare_sized(m, h, o.size);
+  if (!st.status) return st;
+  TopoEditor ed(m, editor_options(o.objective, o.guard, o.stop));
+  const Acceptance acc = acceptance(ed, o.cap, o.ratio);
   struct Item {
     double ratio;
     int32_t t;

@@ -983,17 +983,8 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   c.kind = Candidate::Insert;
   c.size = 1;
   c.ref = m_.tet_ref[t];
-  const bool has_entity = !m_.tet_entity.empty();
-  c.entity = has_entity ? m_.tet_entity[t] : 0;
-  // A tet may join the cavity across an unconstrained face when it lies in
-  // the same region (and Gmsh entity).
-  auto joinable = [&](int32_t o, int f) -> int32_t {
-    const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
-    if (nb < 0 || ((m_.face_mask[o] >> f) & 1u)) return -1;
-    const int32_t n = nb / 4;
-    if (!alive(n) || m_.tet_ref[n] != c.ref || (has_entity && m_.tet_entity[n] != c.entity)) return -1;
-    return n;
-  };
+  c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
+  auto joinable = [&](int32_t o, int f) { return joinable_nb(o, f, c.ref, c.entity); };
   int32_t nbs[4];
   int nn = 0;
   for (int f = 0; f < 4; ++f) {
@@ -1154,9 +1145,14 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   const double* bx = best_x;
   const double fx = best_f;
   if (!(fx > c.old_min + o_.margin)) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
+  return commit_cone(c, bx, face, nf, nullptr);
+}
+
+TopoResult TopoEditor::commit_cone(Candidate& c, const double* x, const int32_t (*face)[3], int nf,
+                                   std::vector<int32_t>* made) {
   // Append the vertex (existing ids unchanged), plan, and take it back if the
   // plan fails.
-  const int32_t nv = push_vertex(bx);
+  const int32_t nv = push_vertex(x);
   c.n_new = nf;
   for (int i = 0; i < nf; ++i) {
     c.quad[i][0] = face[i][0];
@@ -1169,8 +1165,18 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     pop_vertex();
     return r;
   }
-  commit(c);
+  int32_t slots[kMaxNew];
+  commit(c, slots);
+  if (made) made->assign(slots, slots + nf);
   return TopoResult::Applied;
+}
+
+int32_t TopoEditor::joinable_nb(int32_t o, int f, int32_t ref, int32_t entity) const {
+  const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+  if (nb < 0 || ((m_.face_mask[o] >> f) & 1u)) return -1;
+  const int32_t n = nb / 4;
+  if (!alive(n) || m_.tet_ref[n] != ref || (!m_.tet_entity.empty() && m_.tet_entity[n] != entity)) return -1;
+  return n;
 }
 
 TopoResult TopoEditor::remove_vertex(int32_t t) { return contract(t, -1, -1); }
@@ -1385,32 +1391,12 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
   return TopoResult::Applied;
 }
 
-namespace {
-// det(b - a, c - a, x - a) in floating point (the walk's guide; the exact
-// orient3d decides validity).
-double orient_approx(const double* a, const double* b, const double* c, const double* x) {
-  const double ba[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-  const double ca[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-  const double xa[3] = {x[0] - a[0], x[1] - a[1], x[2] - a[2]};
-  double n[3];
-  detail::cross(ba, ca, n);
-  return detail::dot(n, xa);
-}
-}  // namespace
-
 TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance& acc, double min_dist,
                                      std::vector<int32_t>* made) {
   if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
   const int32_t ref = m_.tet_ref[t];
-  const bool has_entity = !m_.tet_entity.empty();
-  const int32_t entity = has_entity ? m_.tet_entity[t] : 0;
-  auto joinable = [&](int32_t o, int f) -> int32_t {
-    const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
-    if (nb < 0 || ((m_.face_mask[o] >> f) & 1u)) return -1;
-    const int32_t n = nb / 4;
-    if (!alive(n) || m_.tet_ref[n] != ref || (has_entity && m_.tet_entity[n] != entity)) return -1;
-    return n;
-  };
+  const int32_t entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
+  auto joinable = [&](int32_t o, int f) { return joinable_nb(o, f, ref, entity); };
   // Walk: cross the face x lies farthest beyond until x is inside.
   int32_t cur = t;
   for (int step = 0;; ++step) {
@@ -1419,8 +1405,10 @@ TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance
     int bf = -1;
     double bo = 0;
     for (int f = 0; f < 4; ++f) {
-      const double o = orient_approx(m_.point(tv[kFaceVertex[f][0]]), m_.point(tv[kFaceVertex[f][1]]),
-                                     m_.point(tv[kFaceVertex[f][2]]), x);
+      // Positive when x lies beyond face f (floating point: the walk's
+      // guide; the exact orient3d below decides validity).
+      const double o = tet_signed_volume(m_.point(tv[kFaceVertex[f][0]]), m_.point(tv[kFaceVertex[f][1]]),
+                                         m_.point(tv[kFaceVertex[f][2]]), x);
       if (o > bo) { bo = o; bf = f; }
     }
     if (bf < 0) break;
@@ -1478,8 +1466,8 @@ TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance
         }
         if (nf >= kMaxNew) return TopoResult::ShellTooLarge;
         face[nf][0] = v0;
-        face[nf][1] = v2;
-        face[nf][2] = v1;
+        face[nf][1] = v1;
+        face[nf][2] = v2;
         ++nf;
       }
     }
@@ -1522,27 +1510,13 @@ TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance
   // most refused points fail here, before the plan's other checks.
   const double floor = std::max(acc.floor_for(c.old_min), 0.0);
   for (int i = 0; i < nf; ++i)
-    if (!(quality(m_.point(face[i][0]), m_.point(face[i][1]), m_.point(face[i][2]), x) >= floor))
+    if (!(quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), x) >= floor))
       return TopoResult::NotImproved;
-  const int32_t nv = push_vertex(x);
-  c.n_new = nf;
-  for (int i = 0; i < nf; ++i) {
-    c.quad[i][0] = face[i][0];
-    c.quad[i][1] = face[i][1];
-    c.quad[i][2] = face[i][2];
-    c.quad[i][3] = nv;
-  }
   accept_ = acc;
   accept_.on = true;
-  const TopoResult r = finish_plan(true, c);
+  const TopoResult r = commit_cone(c, x, face, nf, made);
   accept_ = {};
-  if (r != TopoResult::Applied) {
-    pop_vertex();
-    return r;
-  }
-  int32_t slots[kMaxNew];
-  commit(c, slots);
-  if (made) made->assign(slots, slots + nf);
+  if (r != TopoResult::Applied) return r;
   return TopoResult::Applied;
 }
 

@@ -413,6 +413,15 @@ class TopoEditor {
   // The tets an operation replaces: c's old tets, their worst measure and
   // their kind-4 count.
   void set_old_tets(Candidate& c, const int32_t* tets, int n) const;
+  // insert_vertex / insert_point: the cone from a new free vertex at x over
+  // outer faces face[0..nf) (in their tets' kFaceVertex order, outward),
+  // planned into c (its old tets set) and committed; the vertex is taken
+  // back when the plan fails.  `made`, when given, receives the new tets.
+  TopoResult commit_cone(Candidate& c, const double* x, const int32_t (*face)[3], int nf,
+                         std::vector<int32_t>* made);
+  // The tet across face f of o when a cavity may grow into it: the face
+  // unconstrained, the tet alive, of region ref (and Gmsh entity); else -1.
+  int32_t joinable_nb(int32_t o, int f, int32_t ref, int32_t entity) const;
   // insert_vertex / split_edge: append a free vertex at x (its id), take it back.
   int32_t push_vertex(const double* x);
   void pop_vertex();
