@@ -873,10 +873,9 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
       const auto tb = Clock::now();
       const double ceiling = mesh_bound(m, opt.threads, false, /*walls=*/false).alpha;
       rep.seconds_check += since(tb);
-      if (d.score().first < kAgainBelow * ceiling) {
+      if (const double w = d.score().first; w < kAgainBelow * ceiling) {
         if (log)
-          log(LogLevel::Info, "rounds again: worst alpha " + std::to_string(d.score().first) + ", bound " +
-                                  std::to_string(ceiling));
+          log(LogLevel::Info, "rounds again: worst alpha " + std::to_string(w) + ", bound " + std::to_string(ceiling));
         run_status = d.again(Driver::best_trial_gammas(opt).front());
         if (run_status && !d.stopped()) {
           ensure_vertex_tets(m, opt.threads);
