@@ -54,7 +54,7 @@ struct LocalTet {
   int32_t ia, ib, ic;  // mesh ids of a, b, c (exact check)
   int32_t t;
   int32_t slot;   // local index of the free vertex in tet t
-  Objective obj;  // what e = 1/q measures (objective.hpp); Alpha: the analytic path below
+  Objective obj = Objective::Alpha;  // what e = 1/q measures (objective.hpp); Alpha: the analytic path below
 };
 
 void make_local(const TetMesh& m, int32_t t, int slot, const double* origin, double w, LocalTet& L,
@@ -514,6 +514,7 @@ double tet_error_and_gradient(const double* const p[4], int which, double grad[3
   L.n0len = norm(L.n0);
   L.lfix2 = std::max({dot(ab, ab), dot(ac, ac), dot(bc, bc)});
   L.w = 1;
+  L.obj = Objective::Alpha;  // was left unset: a garbage value sent some calls down objective_error
   const double zero[3] = {0, 0, 0};
   return local_error(L, zero, grad);
 }
