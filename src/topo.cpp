@@ -43,6 +43,9 @@ constexpr int kMaxOuter = 4 * kMaxOld;      // outer faces of a cavity
 constexpr int kInsertMax = 2 * kMaxShell;   // insert_vertex: cavity tets and outer faces
 static_assert(kMaxOld >= 2 * kMaxShell, "an edge shell or sandwich must fit a cavity");
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// insert_vertex's position search: the coarse step every candidate cavity
+// gets and the fine step the best one is refined to (relative sizes).
+constexpr double kCoarseStep = 3e-3, kFineStep = 1e-4;
 
 using detail::edge_key;
 
@@ -57,6 +60,74 @@ void canonical(const int32_t in[3], int32_t out[3]) {
 }
 
 bool same3(const int32_t a[3], const int32_t b[3]) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
+
+// One outer face (A, B, C) of an insertion cavity with what alpha(A, C, B, p)
+// computes from the face alone, so that the position search pays only for
+// the apex p's part.  cone_alpha returns alpha(A, C, B, p) bit for bit: the
+// same operations in the same order (quality.cpp: the area sum adds the
+// faces opposite vertices 0, 1, 2, 3 in turn, the last being (A, B, C); the
+// longest edge is a max, which is order-free).
+struct ConeFace {
+  double a[3], b[3], c[3];
+  double base_area;  // 0.5 |(B - A) x (C - A)|
+  double l2fix;      // longest squared edge of (A, B, C)
+};
+
+void make_cone_face(const double* A, const double* B, const double* C, ConeFace& f) {
+  using detail::cross;
+  using detail::dot;
+  using detail::norm;
+  using detail::sub;
+  for (int k = 0; k < 3; ++k) { f.a[k] = A[k]; f.b[k] = B[k]; f.c[k] = C[k]; }
+  double u[3], v[3], w[3], n[3];
+  sub(B, A, u);
+  sub(C, A, v);
+  cross(u, v, n);
+  f.base_area = 0.5 * norm(n);
+  sub(B, C, w);
+  f.l2fix = std::max({dot(v, v), dot(u, u), dot(w, w)});
+}
+
+const double kConeSixSqrt6 = 6.0 * std::sqrt(6.0);
+
+inline double cone_alpha(const ConeFace& f, const double* p) {
+  using detail::cross;
+  using detail::dot;
+  using detail::norm;
+  using detail::sub;
+  // Tet (A, C, B, p) as quality.cpp sees it: a = A, b = C, c = B, d = p.
+  double u[3], v[3], n[3];
+  // Volume: dot(b - a, (c - a) x (d - a)) / 6.
+  double ba[3], ca[3], da[3], x[3];
+  sub(f.c, f.a, ba);
+  sub(f.b, f.a, ca);
+  sub(p, f.a, da);
+  cross(ca, da, x);
+  const double vol = dot(ba, x) / 6.0;
+  double area = 0;
+  // Face 0 (b, c, d) = (C, B, p).
+  sub(f.b, f.c, u);
+  sub(p, f.c, v);
+  cross(u, v, n);
+  area += 0.5 * norm(n);
+  // Face 1 (a, d, c) = (A, p, B).
+  sub(p, f.a, u);
+  sub(f.b, f.a, v);
+  cross(u, v, n);
+  area += 0.5 * norm(n);
+  // Face 2 (a, b, d) = (A, C, p).
+  sub(f.c, f.a, u);
+  sub(p, f.a, v);
+  cross(u, v, n);
+  area += 0.5 * norm(n);
+  area += f.base_area;  // face 3 (a, c, b) = (A, B, C)
+  const double l2 = std::max({f.l2fix, dot(da, da), [&] { double e[3]; sub(p, f.c, e); return dot(e, e); }(),
+                              [&] { double e[3]; sub(p, f.b, e); return dot(e, e); }()});
+  const double den = area * std::sqrt(l2);
+  if (!(den > 0)) return 0.0;
+  const double q = kConeSixSqrt6 * vol / den;
+  return std::isfinite(q) ? q : 0.0;
+}
 
 // Parity of a permutation of (0,1,2,3): true when odd.
 bool odd_perm(const int p[4]) {
@@ -991,11 +1062,14 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     const int32_t n = joinable(t, f);
     if (n >= 0) nbs[nn++] = n;
   }
-  // Candidate cavities: t plus every subset of its joinable face neighbours,
-  // then a growing cavity (t plus all of them, grown one tet at a time across
-  // the unconstrained outer face whose fan tet is worst at the best position
-  // so far: Klingner & Shewchuk 2007 grow the cavity where the star fails).
-  // The best fan (highest worst alpha after the position search) wins.
+  // Candidate cavities: t alone, then a growing cavity (t plus its joinable
+  // face neighbours, grown one tet at a time across the unconstrained outer
+  // face whose fan tet is worst at the best position so far: Klingner &
+  // Shewchuk 2007 grow the cavity where the star fails).  The best fan
+  // (highest worst alpha after the position search) wins.  Until the
+  // twenty-first session every subset of the face neighbours was tried
+  // first: on raw tetgen meshes none of them ever won over the grown
+  // cavities, and they were half the insertion rounds' time (docs/benchmarks.md).
   int nf = 0, best_nf = 0;
   int32_t face[kMaxOuter][3], best_face[kMaxOuter][3];
   int32_t face_nb[kMaxOuter];
@@ -1005,11 +1079,22 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   // Worst alpha of the fan at p; stops early (returning a value <= stop) once
   // it cannot beat stop.  The face that failed last is tried first next time.
   int lead = 0;
+  // With the alpha objective the fan runs on ConeFace copies of the outer
+  // faces (cone_alpha, the same numbers as quality()), refreshed by each
+  // evaluate().
+  const bool fast = o_.objective == Objective::Alpha;
+  ConeFace cone[kInsertMax];
   auto fan = [&](const double* p, double stop = -kInf) {
     double w = kInf;
     for (int k = 0; k < nf && w > stop; ++k) {
       const int i = (k + lead) % nf;
-      const double q = quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p);
+      double q;
+      if (fast) {
+        q = cone_alpha(cone[i], p);
+        if (q < o_.alpha_floor) q = -kInf;
+      } else {
+        q = quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p);
+      }
       if (q < w) {
         w = q;
         if (w <= stop) lead = i;
@@ -1023,7 +1108,12 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   bool have_x = false;
   // Collects the outer faces of old[0..nold) and optimises the new vertex;
   // false when the cavity is unusable (too many faces, a vertex inside).
-  auto evaluate = [&]() -> bool {
+  // The position search stops at hmin_rel (relative to the mean distance
+  // from the start to the outer faces' first vertices): every candidate
+  // cavity gets a coarse search, and only the best one is refined to
+  // kFineStep at the end (the ranking of cavities hardly changes below
+  // the coarse step, and the fine steps were most of the cost).
+  auto evaluate = [&](double h0_rel = 0.1, double hmin_rel = kCoarseStep) -> bool {
     nf = 0;
     double centre[3] = {0, 0, 0};
     int ncentre = 0;
@@ -1057,6 +1147,8 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
         if (!on) return false;
       }
     for (double& y : centre) y /= ncentre;
+    if (fast)
+      for (int i = 0; i < nf; ++i) make_cone_face(m_.point(face[i][0]), m_.point(face[i][1]), m_.point(face[i][2]), cone[i]);
     // Compass search from the best of: the previous position, the centre of
     // t, the centre of the cavity's outer vertices.
     double tc[3] = {0, 0, 0};
@@ -1073,8 +1165,8 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
       const double* a = m_.point(face[i][0]);
       len += std::sqrt((a[0] - x[0]) * (a[0] - x[0]) + (a[1] - x[1]) * (a[1] - x[1]) + (a[2] - x[2]) * (a[2] - x[2]));
     }
-    double h = 0.1 * len / nf;
-    const double hmin = 1e-4 * len / nf;
+    double h = h0_rel * len / nf;
+    const double hmin = hmin_rel * len / nf;
     static constexpr double kDir[14][3] = {{1, 0, 0},   {-1, 0, 0},  {0, 1, 0},  {0, -1, 0}, {0, 0, 1},
                                            {0, 0, -1},  {1, 1, 1},   {-1, -1, -1}, {1, 1, -1}, {-1, -1, 1},
                                            {1, -1, 1},  {-1, 1, -1}, {-1, 1, 1}, {1, -1, -1}};
@@ -1108,14 +1200,10 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     }
     return true;
   };
-  for (int mask = 0; mask < (1 << nn); ++mask) {
-    nold = 0;
-    old[nold++] = t;
-    for (int i = 0; i < nn; ++i)
-      if ((mask >> i) & 1) old[nold++] = nbs[i];
-    lead = 0;
-    evaluate();
-  }
+  nold = 0;
+  old[nold++] = t;
+  lead = 0;
+  evaluate();
   // Growth from the full one-ring of faces.
   nold = 0;
   old[nold++] = t;
@@ -1138,6 +1226,13 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     }
     if (pick < 0) break;
     old[nold++] = face_nb[pick];
+  }
+  // Refine the best cavity's position from where its coarse search ended.
+  if (have_x) {
+    nold = best_nold;
+    std::copy(best_old, best_old + nold, old);
+    lead = 0;
+    evaluate(2 * kCoarseStep, kFineStep);
   }
   set_old_tets(c, best_old, best_nold);
   nf = best_nf;
