@@ -25,6 +25,7 @@
 
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
+#include "detail/cone.hpp"
 #include "detail/edge_key.hpp"
 #include "detail/parallel.hpp"
 #include "detail/vec3.hpp"
@@ -61,73 +62,6 @@ void canonical(const int32_t in[3], int32_t out[3]) {
 
 bool same3(const int32_t a[3], const int32_t b[3]) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
 
-// One outer face (A, B, C) of an insertion cavity with what alpha(A, C, B, p)
-// computes from the face alone, so that the position search pays only for
-// the apex p's part.  cone_alpha returns alpha(A, C, B, p) bit for bit: the
-// same operations in the same order (quality.cpp: the area sum adds the
-// faces opposite vertices 0, 1, 2, 3 in turn, the last being (A, B, C); the
-// longest edge is a max, which is order-free).
-struct ConeFace {
-  double a[3], b[3], c[3];
-  double base_area;  // 0.5 |(B - A) x (C - A)|
-  double l2fix;      // longest squared edge of (A, B, C)
-};
-
-void make_cone_face(const double* A, const double* B, const double* C, ConeFace& f) {
-  using detail::cross;
-  using detail::dot;
-  using detail::norm;
-  using detail::sub;
-  for (int k = 0; k < 3; ++k) { f.a[k] = A[k]; f.b[k] = B[k]; f.c[k] = C[k]; }
-  double u[3], v[3], w[3], n[3];
-  sub(B, A, u);
-  sub(C, A, v);
-  cross(u, v, n);
-  f.base_area = 0.5 * norm(n);
-  sub(B, C, w);
-  f.l2fix = std::max({dot(v, v), dot(u, u), dot(w, w)});
-}
-
-const double kConeSixSqrt6 = 6.0 * std::sqrt(6.0);
-
-inline double cone_alpha(const ConeFace& f, const double* p) {
-  using detail::cross;
-  using detail::dot;
-  using detail::norm;
-  using detail::sub;
-  // Tet (A, C, B, p) as quality.cpp sees it: a = A, b = C, c = B, d = p.
-  double u[3], v[3], n[3];
-  // Volume: dot(b - a, (c - a) x (d - a)) / 6.
-  double ba[3], ca[3], da[3], x[3];
-  sub(f.c, f.a, ba);
-  sub(f.b, f.a, ca);
-  sub(p, f.a, da);
-  cross(ca, da, x);
-  const double vol = dot(ba, x) / 6.0;
-  double area = 0;
-  // Face 0 (b, c, d) = (C, B, p).
-  sub(f.b, f.c, u);
-  sub(p, f.c, v);
-  cross(u, v, n);
-  area += 0.5 * norm(n);
-  // Face 1 (a, d, c) = (A, p, B).
-  sub(p, f.a, u);
-  sub(f.b, f.a, v);
-  cross(u, v, n);
-  area += 0.5 * norm(n);
-  // Face 2 (a, b, d) = (A, C, p).
-  sub(f.c, f.a, u);
-  sub(p, f.a, v);
-  cross(u, v, n);
-  area += 0.5 * norm(n);
-  area += f.base_area;  // face 3 (a, c, b) = (A, B, C)
-  const double l2 = std::max({f.l2fix, dot(da, da), [&] { double e[3]; sub(p, f.c, e); return dot(e, e); }(),
-                              [&] { double e[3]; sub(p, f.b, e); return dot(e, e); }()});
-  const double den = area * std::sqrt(l2);
-  if (!(den > 0)) return 0.0;
-  const double q = kConeSixSqrt6 * vol / den;
-  return std::isfinite(q) ? q : 0.0;
-}
 
 // Parity of a permutation of (0,1,2,3): true when odd.
 bool odd_perm(const int p[4]) {
@@ -1083,14 +1017,14 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   // faces (cone_alpha, the same numbers as quality()), refreshed by each
   // evaluate().
   const bool fast = o_.objective == Objective::Alpha;
-  ConeFace cone[kInsertMax];
+  detail::ConeFace cone[kInsertMax];
   auto fan = [&](const double* p, double stop = -kInf) {
     double w = kInf;
     for (int k = 0; k < nf && w > stop; ++k) {
       const int i = (k + lead) % nf;
       double q;
       if (fast) {
-        q = cone_alpha(cone[i], p);
+        q = detail::cone_alpha(cone[i], p);
         if (q < o_.alpha_floor) q = -kInf;
       } else {
         q = quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p);
@@ -1148,7 +1082,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
       }
     for (double& y : centre) y /= ncentre;
     if (fast)
-      for (int i = 0; i < nf; ++i) make_cone_face(m_.point(face[i][0]), m_.point(face[i][1]), m_.point(face[i][2]), cone[i]);
+      for (int i = 0; i < nf; ++i) detail::make_cone_face(m_.point(face[i][0]), m_.point(face[i][1]), m_.point(face[i][2]), cone[i]);
     // Compass search from the best of: the previous position, the centre of
     // t, the centre of the cavity's outer vertices.
     double tc[3] = {0, 0, 0};

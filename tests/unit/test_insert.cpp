@@ -18,6 +18,7 @@
 #include "tetopt/predicates.hpp"
 #include "tetopt/quality.hpp"
 #include "tetopt/topo.hpp"
+#include "detail/cone.hpp"
 
 using namespace tetopt;
 
@@ -769,4 +770,31 @@ TEST(Remesh, RefinePassFillsAMeshWithNoInteriorVertex) {
   ASSERT_TRUE(sf.status.ok());
   EXPECT_GT(sf.inserted, st.inserted);
   expect_promise(before, fine, w0);
+}
+
+// insert_vertex's position search runs on detail::cone_alpha, which must be
+// alpha(A, C, B, p) bit for bit (the same operations in the same order), or
+// insertion would accept tets by numbers the rest of the engine does not see.
+TEST(Remesh, ConeAlphaIsAlphaBitForBit) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int64_t positive = 0, checked = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    double A[3], B[3], C[3], p[3];
+    for (int k = 0; k < 3; ++k) { A[k] = u(rng); B[k] = u(rng); C[k] = u(rng); p[k] = u(rng); }
+    if (trial % 4 == 1)  // near-flat: p close to the face's plane
+      for (int k = 0; k < 3; ++k) p[k] = (A[k] + B[k] + C[k]) / 3 + 1e-9 * u(rng);
+    if (trial % 4 == 2)  // a needle face: C next to B
+      for (int k = 0; k < 3; ++k) C[k] = B[k] + 1e-7 * u(rng);
+    if (trial % 4 == 3)  // far apex, large offset coordinates
+      for (int k = 0; k < 3; ++k) { A[k] += 1e4; B[k] += 1e4; C[k] += 1e4; p[k] = 1e4 + 50 * u(rng); }
+    detail::ConeFace f;
+    detail::make_cone_face(A, B, C, f);
+    const double want = alpha(A, C, B, p), got = detail::cone_alpha(f, p);
+    EXPECT_EQ(std::memcmp(&want, &got, sizeof want), 0) << "trial " << trial << ": " << want << " vs " << got;
+    positive += want > 0;
+    ++checked;
+  }
+  EXPECT_GT(positive, checked / 4);  // both orientations and degenerate cases were met
+  EXPECT_LT(positive, checked);
 }
