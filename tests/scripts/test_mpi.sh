@@ -132,8 +132,19 @@ a_single=$(single_median "$W/a.mesh") || exit 1
 b_single=$(single_median "$W/b.mesh") || exit 1
 echo "note single-process reference (median over 5 tet orders): two regions $a_single, box $b_single"
 # tetopt-mpi's --allow-insert is the cavity insertion without the remesher
-# (apps/mpi/main.cpp): the single-process reference runs the same.
-"$T" improve "$W/b.mesh" -o "$W/b_single_ins.mesh" -q --allow-insert --no-remesh || { echo "FAIL single-process improve"; exit 1; }
+# (apps/mpi/main.cpp): the single-process reference runs the same, as the
+# median over the default seed and seeds 1-4.  The insertion rounds' end
+# on this box is chaotic: single-process runs ended at 0.4886, 0.5270,
+# 0.4887, 0.5367 (seeds 1-4) and 0.5423 (default seed), distributed ones at
+# 0.4885-0.5529 (measured 2026-12-03), so one run against one run at 5%
+# was a coin toss.
+v=""
+for sd in "" 1 2 3 4; do
+  "$T" improve "$W/b.mesh" -o "$W/b_single_ins.mesh" -q --allow-insert --no-remesh ${sd:+--seed $sd} || { echo "FAIL single-process improve"; exit 1; }
+  v="$v $(worst "$W/b_single_ins.mesh")"
+done
+b_single_ins=$(/usr/bin/python3 -c "import statistics, sys; print(statistics.median(float(x) for x in sys.argv[1:]))" $v)
+echo "note single-process --allow-insert reference (median over 5 seeds):$v -> $b_single_ins"
 "$T" improve "$W/b.mesh" -o "$W/b_single_rm.mesh" -q --allow-insert --allow-remove --no-remesh || { echo "FAIL single-process improve"; exit 1; }
 
 run "two regions, -np 2" 2 "$W/a.mesh" "$W/a2.mesh" "$a_single" --report "$W/a2.json"
@@ -166,7 +177,7 @@ check "dual graph below the threshold: the report says so" '/usr/bin/python3 -c 
 import json, sys
 r = json.load(open(\"$W/a2.json\"))
 sys.exit(0 if not any(x[\"graph_contracted\"] for x in r[\"rounds\"]) else 1)"'
-run "box, -np 2, --allow-insert" 2 "$W/b.mesh" "$W/b2i.mesh" "$W/b_single_ins.mesh" --allow-insert --threads 2
+run "box, -np 2, --allow-insert" 2 "$W/b.mesh" "$W/b2i.mesh" "$b_single_ins" --allow-insert --threads 2
 # Removal is held to validity only: on this box the distributed run ends 5.2%
 # below the single process with the same options (0.5162 vs 0.5447, measured
 # 2026-11-23): the parts' frozen interfaces keep the vertices next to them.
