@@ -165,6 +165,32 @@ bool Guard::admits(const double* a, const double* b, const double* c, const doub
   return true;
 }
 
+double Guard::slack(const double* a, const double* b, const double* c, const double* d) const {
+  if (!on_) return std::numeric_limits<double>::infinity();
+  double s = std::numeric_limits<double>::infinity();
+  auto rel = [&](Measure k, double v, bool higher) {
+    if (exempt_[idx(k)]) return;
+    const double e = worst_[idx(k)];
+    if (std::isnan(e)) return;
+    const double r = (higher ? v - e : e - v) / std::max(std::fabs(e), 1e-300);
+    s = std::isnan(r) ? -std::numeric_limits<double>::infinity() : std::min(s, r);
+  };
+  rel(Measure::Alpha, alpha(a, b, c, d), true);
+  rel(Measure::MeanRatio, mean_ratio(a, b, c, d), true);
+  rel(Measure::ScaledJacobian, scaled_jacobian(a, b, c, d), true);
+  const double sm = sine_min(a, b, c, d);
+  rel(Measure::SineMin, sm, true);
+  rel(Measure::RadiusRatio, radius_ratio(a, b, c, d), true);
+  rel(Measure::EquivolumeSkewness, equivolume_skewness(a, b, c, d), false);
+  if (!(sm >= sine_enough_)) {  // as admits(): otherwise both angle extremes hold
+    double lo_deg, hi_deg;
+    dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
+    rel(Measure::DihedralMin, lo_deg, true);
+    rel(Measure::DihedralMax, hi_deg, false);
+  }
+  return s;
+}
+
 bool Guard::stale(const TetMesh& m) const {
   if (!on_) return false;
   for (const Holder& h : holder_) {

@@ -43,6 +43,13 @@ class Guard {
   /// Whether tet (a, b, c, d) is no worse than every extreme; when not, the
   /// refusal is counted against the first measure it fails.
   bool admits(const double* a, const double* b, const double* c, const double* d) const;
+  /// How far tet (a, b, c, d) is from failing: the smallest relative margin
+  /// over the guarded measures, (v - e) / |e| where higher is better and
+  /// (e - v) / |e| where lower is (e the extreme).  Not negative exactly when
+  /// admits() holds; negative by how far the worst measure falls short.
+  /// Counts no refusal.  +inf when off.  Used to steer a search toward
+  /// positions the guard admits (TopoEditor::insert_vertex).
+  double slack(const double* a, const double* b, const double* c, const double* d) const;
 
   /// From the next take() on, each extreme is lowered to floor[k] (a value
   /// of measure k; NaN: none) where that is worse: tetopt-mpi's parts are

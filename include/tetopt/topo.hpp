@@ -419,6 +419,10 @@ class TopoEditor {
   // back when the plan fails.  `made`, when given, receives the new tets.
   TopoResult commit_cone(Candidate& c, const double* x, const int32_t (*face)[3], int nf,
                          std::vector<int32_t>* made);
+  // insert_vertex: when the guard refuses the cone from x over face[0..nf),
+  // moves x to a nearby position where every cone tet has q > need and the
+  // guard admits it; false (x unchanged) when none was found.
+  bool guarded_position(const int32_t (*face)[3], int nf, double need, double* x) const;
   // The tet across face f of o when a cavity may grow into it: the face
   // unconstrained, the tet alive, of region ref (and Gmsh entity); else -1.
   int32_t joinable_nb(int32_t o, int f, int32_t ref, int32_t entity) const;
