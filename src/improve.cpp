@@ -668,6 +668,32 @@ class Driver {
                                 " in " + std::to_string(r_.seconds_polish) + " s");
     return mean;
   }
+  // The poor-tet polish (after the remesher): the paper's optimiser (not
+  // the mean polish's Laplacian step, nor the rounds' max-min) over the free
+  // vertices of the tets below gamma, minimising the sum of 1/alpha over
+  // each star with every tet weighted alike (Freitag & Ollivier-Gooch 1997's
+  // sum of inverses; the paper's eq. 3.4 with C = 0.5), under the guards
+  // with no measure exempt: no tet of a star may end worse than the mesh's
+  // worst on any measure, so every extreme stays, and a star's own worst may
+  // fall.  The rounds stop where the worst alpha can rise no further; their
+  // max-min moves leave the other poor tets of a star at the level of its
+  // worst (bib_0p25: a free vertex 1e-3 above a boundary sheet, pinned there
+  // by the tet on a needle boundary triangle at the bound, with nine tets
+  // below 0.2 around it).  Returns the moves made.
+  int64_t polish_poor(double gamma) {
+    if (stopped() || !guard_) return 0;
+    refresh_guard();
+    guard_->exempt_none();
+    const int64_t before = r_.smooth_moves;
+    SmoothOptions so = smooth_opts(gamma, kPolishSweeps, false, o_.seed + 0x5851F42D4C957F2Dull);
+    so.weight = 0.5;
+    so.objective = Objective::Alpha;
+    so.protect_worst = false;  // the guards keep every extreme, alpha's included
+    smooth(so);
+    alpha_.clear();
+    guard_->exempt_only(objective_measure(o_.objective));
+    return r_.smooth_moves - before;
+  }
   // --objective openfoam: the face pass (face_pass.hpp) after every other
   // stage, under the guards with no measure exempt (alpha's worst is kept
   // too), or, with --no-guard, above the mesh's worst alpha.
@@ -800,6 +826,8 @@ const char* mode_name(ImproveMode m) {
 
 namespace {
 constexpr double kAgainBelow = 0.9;
+// The poor-tet polish's threshold (Driver::polish_poor).
+constexpr double kPoorBelow = 0.2;
 }  // namespace
 
 Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, const LogFn& log,
@@ -881,6 +909,13 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
           ensure_vertex_tets(m, opt.threads);
           d.polish_mean(rep.before.alpha_mean, true);
         }
+      }
+      // Then the tets below kPoorBelow, which the rounds left at the level
+      // of their star's worst (see Driver::polish_poor).
+      if (run_status && !d.stopped()) {
+        ensure_vertex_tets(m, opt.threads);
+        const int64_t moves = d.polish_poor(kPoorBelow);
+        if (log) log(LogLevel::Debug, "poor-tet polish: " + std::to_string(moves) + " moves");
       }
     }
   }
