@@ -62,6 +62,33 @@ void canonical(const int32_t in[3], int32_t out[3]) {
 
 bool same3(const int32_t a[3], const int32_t b[3]) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
 
+// Compass search on the six axis directions (Kolda, Lewis & Torczon 2003,
+// "Optimization by direct search", SIAM Review 45): from x, whose value is
+// fx, a step h halved down to hmin, at most max_evals calls of f(y, fx) (f
+// may return early once it cannot beat fx); it also ends once fx exceeds
+// `enough`.  Returns the best value; x is its point.
+template <class F>
+double compass_axes(const F& f, double* x, double fx, double h, double hmin, int max_evals,
+                    double enough = std::numeric_limits<double>::infinity()) {
+  static constexpr double kAxes[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int evals = 0; h > hmin && evals < max_evals && !(fx > enough);) {
+    bool moved = false;
+    for (const auto& d : kAxes) {
+      const double y[3] = {x[0] + h * d[0], x[1] + h * d[1], x[2] + h * d[2]};
+      const double fy = f(y, fx);
+      ++evals;
+      if (fy > fx) {
+        fx = fy;
+        std::copy(y, y + 3, x);
+        moved = true;
+        break;
+      }
+    }
+    if (!moved) h *= 0.5;
+  }
+  return fx;
+}
+
 
 // Parity of a permutation of (0,1,2,3): true when odd.
 bool odd_perm(const int p[4]) {
@@ -1208,23 +1235,7 @@ bool TopoEditor::guarded_position(const int32_t (*face)[3], int nf, double need,
   }
   len /= std::max(nf, 1);
   double y[3] = {x[0], x[1], x[2]};
-  double h = 0.05 * len;
-  static constexpr double kAxes[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  for (int evals = 0; h > 1e-4 * len && evals < 300 && !(gx > 0);) {
-    bool moved = false;
-    for (const auto& d : kAxes) {
-      const double z[3] = {y[0] + h * d[0], y[1] + h * d[1], y[2] + h * d[2]};
-      const double gz = g(z);
-      ++evals;
-      if (gz > gx) {
-        gx = gz;
-        std::copy(z, z + 3, y);
-        moved = true;
-        break;
-      }
-    }
-    if (!moved) h *= 0.5;
-  }
+  gx = compass_axes([&](const double* z, double) { return g(z); }, y, gx, 0.05 * len, 1e-4 * len, 300, 0.0);
   if (!(gx > 0)) return false;
   std::copy(y, y + 3, x);
   return true;
@@ -1432,23 +1443,7 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
     // 2007 place an inserted vertex to maximise its cavity's worst quality).
     const double len = std::sqrt((pa[0] - pb[0]) * (pa[0] - pb[0]) + (pa[1] - pb[1]) * (pa[1] - pb[1]) +
                                  (pa[2] - pb[2]) * (pa[2] - pb[2]));
-    double h = 0.1 * len;
-    static constexpr double kDir[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (int evals = 0; h > 1e-3 * len && evals < 96;) {
-      bool moved = false;
-      for (int k = 0; k < 6; ++k) {
-        const double y[3] = {x[0] + h * kDir[k][0], x[1] + h * kDir[k][1], x[2] + h * kDir[k][2]};
-        const double fy = fan(y, fx);
-        ++evals;
-        if (fy > fx) {
-          fx = fy;
-          std::copy(y, y + 3, x);
-          moved = true;
-          break;
-        }
-      }
-      if (!moved) h *= 0.5;
-    }
+    fx = compass_axes(fan, x, fx, 0.1 * len, 1e-3 * len, 96);
     if (fx < floor) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
   }
   const int32_t nv = push_vertex(x);

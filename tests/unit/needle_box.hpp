@@ -1,4 +1,4 @@
-// A generated test mesh shared by test_topo and test_objective.
+// A generated test mesh shared by test_topo, test_objective and test_poor_polish.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -14,8 +14,11 @@ namespace tetopt_test {
 // almost onto its neighbour in +x (x = i + 0.999).  A move that would make a
 // tet non-positive is undone; *moved (when given) counts the others.  The
 // tets on the needles cannot reach a good alpha whatever their apex (a thin
-// vessel wall meshed coarsely: aorta_vessel).  Topology not built.
-inline tetopt::TetMesh needle_box(int nx, int nz, uint64_t seed, int* moved = nullptr) {
+// vessel wall meshed coarsely: aorta_vessel).  Topology not built.  With
+// `rest` below 0.999 the needles are of two strengths: the first vertex
+// moved goes to x = i + 0.999 (the mesh's worst), the others to x = i + rest
+// (test_poor_polish).
+inline tetopt::TetMesh needle_box(int nx, int nz, uint64_t seed, int* moved = nullptr, double rest = 0.999) {
   using namespace tetopt;
   TetMesh m = make_box_mesh({.nx = nx, .ny = nx, .nz = nz, .jitter = 0.3, .seed = seed});
   int n = 0;
@@ -25,7 +28,7 @@ inline tetopt::TetMesh needle_box(int nx, int nz, uint64_t seed, int* moved = nu
     const long i = std::lround(p[0]), j = std::lround(p[1]);
     if ((i + j) % 3 != 0) continue;
     const double old_x = p[0];
-    p[0] = static_cast<double>(i) + 0.999;
+    p[0] = static_cast<double>(i) + (n == 0 ? 0.999 : rest);
     bool ok = true;
     for (int32_t t = 0; t < m.nt() && ok; ++t) {
       const int32_t* q = m.tet(t);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "needle_box.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/improve.hpp"
 #include "tetopt/mesh.hpp"
@@ -18,31 +19,13 @@ namespace {
 
 using namespace tetopt;
 
-// needle_box's bottom face, with needles of two strengths: the first movable
-// vertex goes almost onto its +x neighbour (x = i + 0.999: the mesh's worst,
-// far below the others), the rest to x = i + off.  The tets on the milder
-// needles hold free vertices near the bottom face, where the max-min moves
-// leave flat tets around them.
+// needle_box (needle_box.hpp) with needles of two strengths: the first
+// movable vertex goes almost onto its +x neighbour (x = i + 0.999: the
+// mesh's worst, far below the others), the rest to x = i + off.  The tets on
+// the milder needles hold free vertices near the bottom face, where the
+// max-min moves leave flat tets around them.
 TetMesh two_needle_box(int nx, int nz, uint64_t seed, double off) {
-  TetMesh m = make_box_mesh({.nx = nx, .ny = nx, .nz = nz, .jitter = 0.3, .seed = seed});
-  bool first = true;
-  for (int32_t v = 0; v < m.nv(); ++v) {
-    double* p = m.point(v);
-    if (p[2] != 0.0 || p[0] <= 0.5 || p[0] >= nx - 0.5 || p[1] <= 0.5 || p[1] >= nx - 0.5) continue;
-    const long i = std::lround(p[0]), j = std::lround(p[1]);
-    if ((i + j) % 3 != 0) continue;
-    const double old_x = p[0];
-    p[0] = static_cast<double>(i) + (first ? 0.999 : off);
-    bool ok = true;
-    for (int32_t t = 0; t < m.nt() && ok; ++t) {
-      const int32_t* q = m.tet(t);
-      if (q[0] == v || q[1] == v || q[2] == v || q[3] == v)
-        ok = orient3d(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3])) == Sign::Positive;
-    }
-    if (ok) first = false;
-    else p[0] = old_x;
-  }
-  return m;
+  return tetopt_test::needle_box(nx, nz, seed, nullptr, off);
 }
 
 struct Result {
