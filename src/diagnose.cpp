@@ -926,8 +926,12 @@ double normal_wall_height(const TetMesh& m, int32_t side, double limit) {
 
 // The walls of side `side` (empty when the side is not thin); h: the
 // normal walk's distance (+inf when not thin).
-void side_walls(const TetMesh& m, int32_t side, std::vector<WallTri>& walls, double& h, bool on = true) {
+// verts (may be null): the vertices of the tets the walk visited (the
+// apexes a mesh without new vertices can put on this side within reach).
+void side_walls(const TetMesh& m, int32_t side, std::vector<WallTri>& walls, double& h, bool on = true,
+                std::vector<int32_t>* verts = nullptr) {
   walls.clear();
+  if (verts) verts->clear();
   double g[3], dir[3], scale;
   h = INFINITY;
   if (!on) return;
@@ -969,6 +973,102 @@ void side_walls(const TetMesh& m, int32_t side, std::vector<WallTri>& walls, dou
       stack.push_back(u);
     }
   }
+  if (verts) {
+    for (const int32_t t : seen) verts->insert(verts->end(), m.tet(t), m.tet(t) + 4);
+    std::sort(verts->begin(), verts->end());
+    verts->erase(std::unique(verts->begin(), verts->end()), verts->end());
+  }
+}
+
+// Whether the open segment (a, b) crosses the open triangle (p, q, r)
+// (exact predicates; touching does not count).  Segments and triangles
+// that share a point are never asked (the callers skip them).
+bool segment_crosses_triangle(const double* a, const double* b, const double* p, const double* q, const double* r) {
+  const Sign sa = orient3d(p, q, r, a), sb = orient3d(p, q, r, b);
+  if (sa == Sign::Zero || sb == Sign::Zero || sa == sb) return false;
+  const Sign s0 = orient3d(a, b, p, q), s1 = orient3d(a, b, q, r), s2 = orient3d(a, b, r, p);
+  return s0 != Sign::Zero && s0 == s1 && s1 == s2;
+}
+
+bool same_point(const double* a, const double* b) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
+
+// Whether tet (v[0..3]) and kept triangle w cross: an edge of one through
+// the other's open face (exact).  A conforming mesh keeping w has no such
+// tet (its edges and faces meet w only in w's edges and vertices), so a
+// candidate apex that makes one is impossible; missing other contacts only
+// loosens the bound.
+bool tet_crosses_wall(const double* const v[4], const WallTri& w) {
+  const double* wv[3] = {&w[0], &w[3], &w[6]};
+  auto shares = [&](const double* x) { return same_point(x, wv[0]) || same_point(x, wv[1]) || same_point(x, wv[2]); };
+  static constexpr int kE[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  for (const auto& e : kE)
+    if (!shares(v[e[0]]) && !shares(v[e[1]]) && segment_crosses_triangle(v[e[0]], v[e[1]], wv[0], wv[1], wv[2]))
+      return true;
+  for (int i = 0; i < 3; ++i) {
+    const double *a = wv[i], *b = wv[(i + 1) % 3];
+    for (int f = 0; f < 4; ++f) {
+      const double* fv[3] = {v[kFaceVertex[f][0]], v[kFaceVertex[f][1]], v[kFaceVertex[f][2]]};
+      bool sh = false;
+      for (const double* x : fv) sh = sh || same_point(x, a) || same_point(x, b);
+      if (!sh && segment_crosses_triangle(a, b, fv[0], fv[1], fv[2])) return true;
+    }
+  }
+  return false;
+}
+
+// SideBound::vertex_alpha: the best alpha of the tet on side `side` with its
+// apex at one of `verts` (side_walls' visited vertices) allowed by the same
+// constraint as walled_side_best's apexes (inside the wedges s, the open
+// segment from the centroid clear of the walls), at least the side's own
+// tet; *apex: that vertex.  NaN when a free vertex is among them (the wall
+// already has vertices inside it, which can move).
+double walled_side_vertex_best(const TetMesh& m, int32_t side, const double* const s[3],
+                               const std::vector<WallTri>& walls, const std::vector<int32_t>& verts, int32_t* apex_out) {
+  *apex_out = -1;
+  if (m.vert_constrained.size() != static_cast<size_t>(m.nv())) return NAN;
+  const double* p[3];
+  face_points(m, side, p);
+  const Frame f(p[0], p[1], p[2]);
+  if (f.degenerate) return NAN;
+  const int32_t* tv = m.tet(side >> 2);
+  const int32_t own = tv[side & 3];
+  const double* apex = m.point(own);
+  const SideConstraint c(f, p[0], p[1], p[2], s, &walls, apex);
+  if (c.bad) return NAN;
+  const double sgn = SideConstraint::loc(f, apex)[2] < 0 ? -1.0 : 1.0;
+  for (const int32_t v : verts)
+    if (!m.vert_constrained[v]) return NAN;
+  double best = std::max(0.0, tet_alpha(m, side >> 2));
+  *apex_out = own;
+  // Candidates above the side's own tet, best first; the first one whose
+  // tet passes both tests (the centroid segment clear of the walls, no
+  // crossing with a wall) is the value.
+  std::vector<std::pair<double, int32_t>> cand;
+  for (const int32_t v : verts) {
+    bool on_face = false;
+    for (int k = 0; k < 4; ++k)
+      if (k != (side & 3) && tv[k] == v) on_face = true;
+    if (on_face || v == own) continue;
+    Vec3 x = SideConstraint::loc(f, m.point(v));
+    x[2] *= sgn;
+    if (!(x[2] > 0)) continue;
+    const double a = std::fabs(alpha(p[0], p[1], p[2], m.point(v)));
+    if (a > best) cand.push_back({a, v});
+  }
+  std::sort(cand.begin(), cand.end(), [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
+  for (const auto& [a, v] : cand) {
+    Vec3 x = SideConstraint::loc(f, m.point(v));
+    x[2] *= sgn;
+    if (!c.ok(x)) continue;
+    const double* tv4[4] = {p[0], p[1], p[2], m.point(v)};
+    bool crosses = false;
+    for (const WallTri& w : walls)
+      if ((crosses = tet_crosses_wall(tv4, w))) break;
+    if (crosses) continue;
+    *apex_out = v;
+    return a;
+  }
+  return best;
 }
 
 // The best alpha of side `side` with its apex inside the wedges s (may be
@@ -1091,12 +1191,15 @@ double side_best(const TetMesh& m, int32_t side,
   const double* s[3];
   const bool wedged = face_wedges(m, side, s) > 0;
   std::vector<WallTri> walls;
+  std::vector<int32_t> verts;
   double h;
-  side_walls(m, side, walls, h, walls_on);
+  side_walls(m, side, walls, h, walls_on, info ? &verts : nullptr);
   if (info) {
     info->wedged = wedged;
     info->walled = false;
     info->wall_distance = NAN;
+    info->vertex_alpha = NAN;
+    info->vertex_apex = -1;
   }
   if (!walls.empty()) {
     bool walled;
@@ -1104,6 +1207,8 @@ double side_best(const TetMesh& m, int32_t side,
     if (info && walled) {
       info->walled = true;
       info->wall_distance = h;
+      const double va = walled_side_vertex_best(m, side, wedged ? s : nullptr, walls, verts, &info->vertex_apex);
+      if (!std::isnan(va)) info->vertex_alpha = std::min(v, va);
     }
     return v;
   }
@@ -1496,6 +1601,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         p.wedged = sb.wedged;
         p.walled = sb.walled;
         p.wall_d = sb.wall_distance;
+        p.vertex_alpha = sb.vertex_alpha;
       }
     }
     // Two faces of t on the domain boundary (no tet beyond either): t is the
@@ -1524,7 +1630,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         p.best_alpha = std::min(p.best_alpha, p.wedge_alpha);
         p.face = p.wedge_face;
         p.wedged = p.walled = false;  // said with the angle instead
-        p.wall_d = NAN;
+        p.wall_d = p.vertex_alpha = NAN;
       } else {
         p.wedge_alpha = p.wedge_deg = NAN;  // no tighter than the triangle's own bound
         p.wedge_face = -1;
@@ -1538,6 +1644,11 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     d.poor.push_back(std::move(p));
   }
   d.count[0] = nt - d.count[1] - d.count[2] - d.count[3];
+  for (const PoorTet& p : d.poor)
+    if (!std::isnan(p.vertex_alpha) && !(p.vertex_alpha >= d.vertex_bound)) {
+      d.vertex_bound = p.vertex_alpha;
+      d.vertex_bound_tet = p.tet;
+    }
   std::sort(d.poor.begin(), d.poor.end(), [](const PoorTet& x, const PoorTet& y) {
     return x.alpha < y.alpha || (x.alpha == y.alpha && x.tet < y.tet);
   });
@@ -1607,6 +1718,10 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
       o << "  and at least " << c[0] << " / " << c[1] << " / " << c[2]
         << " tets below α 0.1 / 0.2 / 0.3 (their boundary triangles allow no better apex)\n";
   }
+  if (!std::isnan(d.vertex_bound))
+    o << "  with no new vertex inside the walls (a vertex there splits the wall's thickness): α ≤ "
+      << fixed(d.vertex_bound, "%.4f") << " (triangle of tet " << d.vertex_bound_tet + 1
+      << ", its best apex among the vertices there)\n";
   for (size_t i = 0; i < d.poor.size() && i < max_list; ++i) {
     const PoorTet& p = d.poor[i];
     o << "    tet " << p.tet + 1 << "  α " << fixed(p.alpha, "%.4f") << "  kind " << p.kind << "  at "
@@ -1615,9 +1730,14 @@ std::string format_diagnosis(const Diagnosis& d, size_t max_list) {
     if (p.cls == TetClass::LockedByTriangle && !std::isnan(p.wedge_alpha))
       o << " and the boundary face beside it, meeting at " << fixed(p.wedge_deg, "%.1f") << "° (best possible α = "
         << fixed(p.best_alpha, "%.4f") << ")";
-    else if (p.cls == TetClass::LockedByTriangle && p.walled)
+    else if (p.cls == TetClass::LockedByTriangle && p.walled) {
       o << " and the wall facing it, d = " << fixed(p.wall_d, "%.4g") << " (best possible α = "
-        << fixed(p.best_alpha, "%.4f") << ")";
+        << fixed(p.best_alpha, "%.4f");
+      if (!std::isnan(p.vertex_alpha))
+        o << "; with no new vertex inside the wall " << fixed(p.vertex_alpha, "%.4f")
+          << (p.vertex_alpha <= p.alpha + 1e-9 ? ", reached" : "");
+      o << ")";
+    }
     else if (p.cls == TetClass::LockedByTriangle && p.wedged)
       o << " and the sharp boundary edges around it (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
     else if (p.cls == TetClass::LockedByTriangle) o << " (best possible α = " << fixed(p.best_alpha, "%.4f") << ")";
@@ -1658,6 +1778,8 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
     o << "}";
   }
   o << ", \"triangles_refined\": " << d.bound.refined << ", \"seconds\": " << num(d.bound.seconds) << "},\n";
+  o << pad << "\"alpha_bound_no_new_wall_vertex\": " << num(d.vertex_bound) << ",\n";
+  o << pad << "\"alpha_bound_no_new_wall_vertex_tet\": " << d.vertex_bound_tet << ",\n";
   o << pad << "\"seconds\": " << num(d.seconds) << ",\n";
   o << pad << "\"tets\": [";
   const size_t n = max_list ? std::min(max_list, d.poor.size()) : d.poor.size();
@@ -1670,7 +1792,8 @@ std::string diagnosis_to_json(const Diagnosis& d, size_t max_list, int indent) {
       << ", \"alpha\": " << num(p.alpha) << ", \"dihedral_min\": " << num(p.dihedral_min)
       << ", \"dihedral_max\": " << num(p.dihedral_max) << ", \"kind\": " << p.kind
       << ", \"best_alpha\": " << num(p.best_alpha) << ", \"face\": " << p.face
-      << ", \"wedge_deg\": " << num(p.wedge_deg) << ", \"wall_d\": " << num(p.wall_d) << ", \"centroid\": ["
+      << ", \"wedge_deg\": " << num(p.wedge_deg) << ", \"wall_d\": " << num(p.wall_d)
+      << ", \"vertex_alpha\": " << num(p.vertex_alpha) << ", \"centroid\": ["
       << num(p.centroid[0]) << ", " << num(p.centroid[1]) << ", " << num(p.centroid[2]) << "]}";
   }
   o << (n ? "\n" + pad : "") << "]\n}";

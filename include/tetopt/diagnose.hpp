@@ -150,6 +150,17 @@ struct SideBound {
   bool wedged = false;          ///< its apex kept inside the wedges of sharp edges (face_wedges)
   bool walled = false;          ///< its apex kept clear of walls facing it (see the essay)
   double wall_distance = NAN;   ///< walled: distance from the centroid along the normal to the first wall
+  /// walled: the best alpha of the tet on this side with its apex at a
+  /// vertex the mesh already has (within the walls' reach, clear of the
+  /// walls like `alpha`'s apexes), and that vertex; NaN / -1 when the side
+  /// is not walled or a free vertex lies within reach (the region is not
+  /// one layer of kept vertices).  A bound for every mesh that adds no
+  /// vertex inside the wall: a wall d thick leaves a new vertex there at
+  /// height z < d over T and d - z under the triangles facing it, so the
+  /// continuous bound `alpha` (an apex anywhere below the facing wall)
+  /// overstates what a conforming mesh of the wall reaches (issue: tw_A).
+  double vertex_alpha = NAN;
+  int32_t vertex_apex = -1;
 };
 /// packed = 4 t + f, f a constrained face of tet t: the side is t's.
 /// Requires m's topology.
@@ -242,6 +253,9 @@ struct PoorTet {
   /// from the face's centroid to the first of them along its normal.
   bool walled = false;
   double wall_d = NAN;
+  /// walled: SideBound::vertex_alpha of that face (the best apex among the
+  /// vertices already there); NaN otherwise.
+  double vertex_alpha = NAN;
   double centroid[3] = {0, 0, 0};
 };
 
@@ -252,6 +266,11 @@ struct Diagnosis {
   std::vector<PoorTet> poor;        ///< every tet below the threshold, worst alpha first
   std::vector<uint8_t> tet_class;   ///< nt, TetClass per tet
   MeshBound bound;                  ///< filled when DiagnoseOptions::mesh_bound
+  /// The lowest PoorTet::vertex_alpha over the poor tets and its tet: no
+  /// mesh that adds no vertex inside the walls has alpha above it (NaN / -1
+  /// when no poor tet is walled).
+  double vertex_bound = NAN;
+  int32_t vertex_bound_tet = -1;
   int64_t faces_searched = 0;
   double seconds = 0;
 };
