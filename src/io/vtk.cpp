@@ -234,6 +234,28 @@ struct Grid {
   std::vector<Array> cell_data, point_data;
 };
 
+/// Index values (offsets, connectivity, cell types) read as doubles, into
+/// out.  A value outside int64's range or NaN has no index and its
+/// conversion is undefined behaviour (a fuzzed 9.2e18 offset): false, with
+/// *bad its position.
+bool to_indices(const std::vector<double>& v, std::vector<int64_t>& out, size_t* bad) {
+  constexpr double kLim = 9223372036854775808.0;  // 2^63, exact in a double
+  out.clear();
+  out.reserve(v.size());
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (!(v[i] >= -kLim && v[i] < kLim)) {
+      *bad = i;
+      return false;
+    }
+    out.push_back(static_cast<int64_t>(v[i]));
+  }
+  return true;
+}
+
+std::string index_range_error(const std::string& what, size_t i, double x) {
+  return what + " value " + std::to_string(i + 1) + " (" + shorten(std::to_string(x)) + ") is not an index";
+}
+
 /// Fills m from g; `where` prefixes messages ("FILE" or "FILE:LINE").
 Status build_mesh(Grid& g, const std::string& name, TetMesh& m) {
   const int64_t nv = static_cast<int64_t>(g.xyz.size() / 3);
@@ -365,7 +387,8 @@ class LegacyReader {
         std::vector<double> v;
         if (s = values(n, binary_ ? NumType{4, true, true, false} : NumType{8, true, true, false}, v, "CELL_TYPES"); !s)
           return s;
-        g_.types.assign(v.begin(), v.end());
+        if (size_t bad = 0; !to_indices(v, g_.types, &bad))
+          return fail(ErrorCode::Parse, index_range_error("CELL_TYPES", bad, v[bad]));
       } else if (kw == "CELL_DATA" || kw == "POINT_DATA") {
         // One section of each per dataset (VTK's file-formats manual); a
         // second one was appended to the first and its refs silently lost.
@@ -492,12 +515,14 @@ class LegacyReader {
       if (t.bytes == 0 || !t.integer) return fail(ErrorCode::Parse, "OFFSETS type must be an integer type");
       if (n < 1) return fail(ErrorCode::Parse, "OFFSETS needs at least one value");
       if (Status s = values(n, t, v, "OFFSETS"); !s) return s;
-      g_.offsets.assign(v.begin(), v.end());
+      if (size_t bad = 0; !to_indices(v, g_.offsets, &bad))
+        return fail(ErrorCode::Parse, index_range_error("OFFSETS", bad, v[bad]));
       if (upper(c_.token()) != "CONNECTIVITY") return fail(ErrorCode::Parse, "expected CONNECTIVITY after OFFSETS");
       const NumType t2 = legacy_type(c_.token());
       if (t2.bytes == 0 || !t2.integer) return fail(ErrorCode::Parse, "CONNECTIVITY type must be an integer type");
       if (Status s = values(size, t2, v, "CONNECTIVITY"); !s) return s;
-      g_.conn.assign(v.begin(), v.end());
+      if (size_t bad = 0; !to_indices(v, g_.conn, &bad))
+        return fail(ErrorCode::Parse, index_range_error("CONNECTIVITY", bad, v[bad]));
       if (g_.offsets.front() != 0 || g_.offsets.back() != size)
         return fail(ErrorCode::Parse, "OFFSETS do not span CONNECTIVITY");
       ncells = n - 1;
@@ -516,7 +541,11 @@ class LegacyReader {
         return fail(ErrorCode::Parse, "cell " + std::to_string(c) + " has a bad point count " +
                                           (k == std::floor(k) && std::fabs(k) < 1e15 ? std::to_string(static_cast<int64_t>(k))
                                                                                    : shorten(std::to_string(k))));
-      for (int64_t j = 0; j < static_cast<int64_t>(k); ++j) g_.conn.push_back(static_cast<int64_t>(v[at++]));
+      for (int64_t j = 0; j < static_cast<int64_t>(k); ++j, ++at) {
+        if (!(v[at] >= -9223372036854775808.0 && v[at] < 9223372036854775808.0))
+          return fail(ErrorCode::Parse, index_range_error("CELLS", at, v[at]));
+        g_.conn.push_back(static_cast<int64_t>(v[at]));
+      }
       g_.offsets[static_cast<size_t>(c) + 1] = static_cast<int64_t>(g_.conn.size());
     }
     if (at != v.size())
@@ -864,16 +893,21 @@ class VtuReader {
     if (pts->components != 3) return fail(ErrorCode::Parse, "Points must have 3 components", pts->tag_pos);
     g.xyz = std::move(a.values);
     if (Status st = decode(*offs, ncells_, a); !st) return st;
-    g.offsets.reserve(static_cast<size_t>(ncells_) + 1);
+    std::vector<int64_t> idx;
+    if (size_t bad = 0; !to_indices(a.values, idx, &bad))
+      return fail(ErrorCode::Parse, index_range_error("offsets", bad, a.values[bad]), offs->tag_pos);
+    g.offsets.reserve(idx.size() + 1);
     g.offsets.push_back(0);
-    for (double v : a.values) g.offsets.push_back(static_cast<int64_t>(v));
+    g.offsets.insert(g.offsets.end(), idx.begin(), idx.end());
     if (Status st = decode(*types, ncells_, a); !st) return st;
-    g.types.assign(a.values.begin(), a.values.end());
+    if (size_t bad = 0; !to_indices(a.values, g.types, &bad))
+      return fail(ErrorCode::Parse, index_range_error("types", bad, a.values[bad]), types->tag_pos);
     const int64_t nconn = g.offsets.back();
     if (nconn < 0 || static_cast<uint64_t>(nconn) > s_.size())
       return fail(ErrorCode::Parse, "the last cell offset " + std::to_string(nconn) + " is absurd", offs->tag_pos);
     if (Status st = decode(*conn, nconn, a); !st) return st;
-    g.conn.assign(a.values.begin(), a.values.end());
+    if (size_t bad = 0; !to_indices(a.values, g.conn, &bad))
+      return fail(ErrorCode::Parse, index_range_error("connectivity", bad, a.values[bad]), conn->tag_pos);
     for (const DataArrayInfo& d : arrays_) {
       if (d.section != "CellData" && d.section != "PointData") continue;
       int64_t n = 0;

@@ -403,6 +403,23 @@ TEST(IoVtkHostile, StructureErrors) {
   expect_error(kVtkHead + kPts + "CELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n10\n", ErrorCode::Parse, 0, "lists 3 points");
 }
 
+// Index values beyond int64's range: they were converted from double to
+// int64 unchecked, undefined behaviour that UBSan caught in the vtk fuzzer
+// (a binary OFFSETS value of 2^63 - 1, read through a double as 2^63).
+TEST(IoVtkHostile, IndicesBeyondInt64AreErrors) {
+  const std::string big = "9223372036854775807";  // 2^63 - 1: 2^63 as a double
+  expect_error(kVtkHead + kPts + "CELLS 2 4\nOFFSETS vtktypeint64\n0 " + big +
+                   "\nCONNECTIVITY vtktypeint64\n0 1 2 3\nCELL_TYPES 1\n10\n",
+               ErrorCode::Parse, 0, "OFFSETS value 2");
+  expect_error(kVtkHead + kPts + "CELLS 2 4\nOFFSETS vtktypeint64\n0 4\nCONNECTIVITY vtktypeint64\n0 1 " + big +
+                   " 3\nCELL_TYPES 1\n10\n",
+               ErrorCode::Parse, 0, "CONNECTIVITY value 3");
+  expect_error(kVtkHead + kPts + "CELLS 1 5\n4 0 1 " + big + " 3\nCELL_TYPES 1\n10\n", ErrorCode::Parse, 0,
+               "CELLS value 4");
+  expect_error(kVtkHead + kPts + kCells.substr(0, kCells.find("CELL_TYPES")) + "CELL_TYPES 1\n" + big + "\n",
+               ErrorCode::Parse, 0, "CELL_TYPES value 1");
+}
+
 TEST(IoVtkHostile, BinaryTruncatedAndCorrupted) {
   const TetMesh m = sample_mesh();
   std::string out;
