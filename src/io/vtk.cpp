@@ -238,12 +238,16 @@ struct Grid {
 /// out.  A value outside int64's range or NaN has no index and its
 /// conversion is undefined behaviour (a fuzzed 9.2e18 offset): false, with
 /// *bad its position.
-bool to_indices(const std::vector<double>& v, std::vector<int64_t>& out, size_t* bad) {
+bool is_index(double x) {
   constexpr double kLim = 9223372036854775808.0;  // 2^63, exact in a double
+  return x >= -kLim && x < kLim;                  // false for NaN
+}
+
+bool to_indices(const std::vector<double>& v, std::vector<int64_t>& out, size_t* bad) {
   out.clear();
   out.reserve(v.size());
   for (size_t i = 0; i < v.size(); ++i) {
-    if (!(v[i] >= -kLim && v[i] < kLim)) {
+    if (!is_index(v[i])) {
       *bad = i;
       return false;
     }
@@ -542,7 +546,7 @@ class LegacyReader {
                                           (k == std::floor(k) && std::fabs(k) < 1e15 ? std::to_string(static_cast<int64_t>(k))
                                                                                    : shorten(std::to_string(k))));
       for (int64_t j = 0; j < static_cast<int64_t>(k); ++j, ++at) {
-        if (!(v[at] >= -9223372036854775808.0 && v[at] < 9223372036854775808.0))
+        if (!is_index(v[at]))
           return fail(ErrorCode::Parse, index_range_error("CELLS", at, v[at]));
         g_.conn.push_back(static_cast<int64_t>(v[at]));
       }

@@ -605,6 +605,25 @@ TetMesh thin_slab(int n, double d) {
   return m;
 }
 
+// improve with insertion and removal on a copy of m, which keeps its kept
+// triangles: the result must stay under dg's bound and over its count
+// floor.  worst and below (at kCountThresholds) are the result's.
+void improve_within_bound(const TetMesh& m, const Diagnosis& dg, double& worst, int64_t below[3]) {
+  TetMesh w = m;
+  ImproveOptions o;
+  o.mode = ImproveMode::Best;
+  o.allow_insert = o.allow_remove = true;
+  ImproveReport r;
+  ASSERT_TRUE(improve(w, o, r).ok());
+  for (int32_t t = 0; t < w.nt(); ++t) {
+    const double q = tet_alpha(w, t);
+    worst = std::min(worst, q);
+    for (size_t k = 0; k < 3; ++k) below[k] += q < kCountThresholds[k];
+  }
+  EXPECT_LE(worst, dg.bound.alpha + 1e-9);
+  for (size_t k = 0; k < 3; ++k) EXPECT_LE(dg.bound.below_at_least[k], below[k]) << k;
+}
+
 }  // namespace
 
 TEST(Diagnose, ThinSlabCapsTheApex) {
@@ -676,21 +695,9 @@ TEST(Diagnose, ThinSlabCapsTheApex) {
   for (const PoorTet& p : open_dg.poor) EXPECT_FALSE(p.walled);
   // improve with insertion and removal keeps the triangles: it stays under
   // the bound and over the count floor.
-  TetMesh w = m;
-  ImproveOptions o;
-  o.mode = ImproveMode::Best;
-  o.allow_insert = o.allow_remove = true;
-  ImproveReport r;
-  ASSERT_TRUE(improve(w, o, r).ok());
   double worst = 1;
   int64_t below[3] = {0, 0, 0};
-  for (int32_t t = 0; t < w.nt(); ++t) {
-    const double q = tet_alpha(w, t);
-    worst = std::min(worst, q);
-    for (size_t k = 0; k < 3; ++k) below[k] += q < kCountThresholds[k];
-  }
-  EXPECT_LE(worst, dg.bound.alpha + 1e-9);
-  for (size_t k = 0; k < 3; ++k) EXPECT_LE(dg.bound.below_at_least[k], below[k]) << k;
+  improve_within_bound(m, dg, worst, below);
   std::printf("slab d=%g: own %.4f capped %.4f diag %.4f improve worst %.4f floor %lld/%lld/%lld below %lld/%lld/%lld\n",
               d, old_like.alpha, worst_side, dg.bound.alpha, worst, (long long)dg.bound.below_at_least[0],
               (long long)dg.bound.below_at_least[1], (long long)dg.bound.below_at_least[2], (long long)below[0],
@@ -755,21 +762,9 @@ TEST(Diagnose, ThinWallInsideABoxCapsOnlyItsInside) {
   // no two can be faces of one tet: 64 tets below 0.3 in every mesh (the
   // triangles' own bound, 0.3083 on each side, gave none).
   EXPECT_EQ(dg.bound.below_at_least[2], 64);
-  TetMesh w = m;
-  ImproveOptions o;
-  o.mode = ImproveMode::Best;
-  o.allow_insert = o.allow_remove = true;
-  ImproveReport r;
-  ASSERT_TRUE(improve(w, o, r).ok());
   double worst = 1;
   int64_t below[3] = {0, 0, 0};
-  for (int32_t t = 0; t < w.nt(); ++t) {
-    const double q = tet_alpha(w, t);
-    worst = std::min(worst, q);
-    for (size_t k = 0; k < 3; ++k) below[k] += q < kCountThresholds[k];
-  }
-  EXPECT_LE(worst, dg.bound.alpha + 1e-9);
-  for (size_t k = 0; k < 3; ++k) EXPECT_LE(dg.bound.below_at_least[k], below[k]) << k;
+  improve_within_bound(m, dg, worst, below);
   std::printf("wall 0.15: capped %.4f improve worst %.4f floor %lld/%lld/%lld below %lld/%lld/%lld\n", dg.bound.alpha,
               worst, (long long)dg.bound.below_at_least[0], (long long)dg.bound.below_at_least[1],
               (long long)dg.bound.below_at_least[2], (long long)below[0], (long long)below[1], (long long)below[2]);
