@@ -303,6 +303,7 @@ class Driver {
   void set_trials(int n) { trials_ = std::max(1, n); }
   void next_trial() {
     alpha_.clear();
+    insert_memo_.refused.clear();  // the input again, and its guards are looser
     if (guard_) {
       const auto t = Clock::now();
       Guard::take(m_, threads_, *guard_);
@@ -392,6 +393,7 @@ class Driver {
         io.remove = o_.allow_remove;
         io.objective = o_.objective;
         io.guard = guard_;
+        io.memo = &insert_memo_;
         const InsertStats is = insert_pass(m_, io, sub_log_);
         alpha_.clear();
         r_.insertions += is.inserted;
@@ -399,8 +401,10 @@ class Driver {
         r_.removed_vertices.insert(r_.removed_vertices.end(), is.removed_vertices.begin(), is.removed_vertices.end());
         r_.seconds_topo += since(t);
         if (!is.status) return is.status;
+        // tried + skipped: a tet skipped as unchanged since its refusal
+        // (InsertMemo) counts as the refusal it would have met again.
         if (!(is.alpha_worst_after > is.alpha_worst_before) &&
-            static_cast<double>(is.inserted + is.removed) < kInsertLive * static_cast<double>(is.tried))
+            static_cast<double>(is.inserted + is.removed) < kInsertLive * static_cast<double>(is.tried + is.skipped))
           insert_live = false;
         if (!checkpoint("insert", 3.5 / kPhases)) return Status::success();
       }
@@ -811,6 +815,7 @@ class Driver {
   Guard* guard_;
   bool again_ = false;  // again(): best() without the relaxation and the remesher
   std::vector<double> alpha_;  // tet_alpha of every tet when its size is nt (see ensure_cache)
+  InsertMemo insert_memo_;     // the insertion rounds' refusals, across rounds (InsertMemo)
 };
 }  // namespace
 

@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <queue>
 #include <string>
@@ -37,22 +38,55 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   st.alpha_worst_before = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t) st.alpha_worst_before = std::min(st.alpha_worst_before, ed.cached_alpha(t));
   std::vector<int32_t> work;
-  // A tet refused in an earlier pass is not tried again while no commit
-  // has touched it or its face neighbours (their vertices: the cavities
-  // start there), nor has it been replaced: failed[t] holds the epoch that
-  // began after its refusal, vert[t] its vertices then.
-  std::vector<uint32_t> failed;
-  std::vector<std::array<int32_t, 4>> failed_v;
+  // A tet refused before (in an earlier pass, or an earlier call sharing
+  // o.memo) is not tried again while its signature (InsertMemo) is what it
+  // was then: no commit has replaced it or its face neighbours or changed
+  // their adjacency, and no vertex of theirs has moved (the cavities start
+  // there).  The attempt can reach further (the grown cavity, a removed
+  // vertex's star): a change only there goes unseen, as it did when this
+  // memo lasted one call.
+  InsertMemo local;
+  InsertMemo& memo = o.memo ? *o.memo : local;
+  auto mixer = [](uint64_t& h, uint64_t x) {  // splitmix64's finaliser over the running hash
+    uint64_t z = h ^ (x + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2));
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    h = z ^ (z >> 31);
+  };
+  auto key = [&](int32_t t) {
+    std::array<int32_t, 4> q;
+    std::copy(m.tet(t), m.tet(t) + 4, q.begin());
+    std::sort(q.begin(), q.end());
+    uint64_t h = 0x243F6A8885A308D3ull;
+    for (const int32_t v : q) mixer(h, static_cast<uint32_t>(v));
+    return h;
+  };
+  auto signature = [&](int32_t t) {
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    auto tet = [&](int32_t u) {
+      const int32_t* tv = m.tet(u);
+      for (int k = 0; k < 4; ++k) {
+        mixer(h, static_cast<uint32_t>(tv[k]));
+        const double* p = m.point(tv[k]);
+        for (int d = 0; d < 3; ++d) {
+          uint64_t b;
+          std::memcpy(&b, p + d, sizeof b);
+          mixer(h, b);
+        }
+        // The vertex across face k (the face opposite tv[k]), -1 on none.
+        const int32_t nb = m.adj[4 * static_cast<size_t>(u) + k];
+        mixer(h, static_cast<uint32_t>(nb < 0 ? -1 : m.tets[nb]));
+      }
+      mixer(h, static_cast<uint64_t>(static_cast<uint32_t>(m.tet_ref[u])) << 8 | m.face_mask[u]);
+    };
+    tet(t);
+    for (int f = 0; f < 4; ++f)
+      if (const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f]; nb >= 0) tet(nb / 4);
+    return h | 1;
+  };
   auto unchanged = [&](int32_t t) {
-    if (static_cast<size_t>(t) >= failed.size() || failed[t] == 0) return false;
-    const int32_t* tv = m.tet(t);
-    if (!std::equal(tv, tv + 4, failed_v[t].begin())) return false;
-    if (ed.touched_since(t, failed[t])) return false;
-    for (int f = 0; f < 4; ++f) {
-      const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f];
-      if (nb >= 0 && ed.touched_since(nb / 4, failed[t])) return false;
-    }
-    return true;
+    const auto it = memo.refused.find(key(t));
+    return it != memo.refused.end() && it->second == signature(t);
   };
   for (int p = 0; p < std::max(1, o.passes); ++p) {
     work.clear();
@@ -64,28 +98,27 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     std::stable_sort(work.begin(), work.end(),
                      [&](int32_t a, int32_t b) { return ed.cached_alpha(a) < ed.cached_alpha(b); });
     int64_t ins = 0, rem = 0;
+    const int64_t skipped0 = st.skipped;
     for (int32_t t : work) {
       if (!ed.alive(t) || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
-      if (unchanged(t)) continue;
+      if (unchanged(t)) {
+        ++st.skipped;
+        continue;
+      }
       ++st.tried;
       if (o.insert && ed.insert_vertex(t) == TopoResult::Applied) ++ins;
       else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) ++rem;
       else if (ed.alive(t)) {
-        if (failed.size() < static_cast<size_t>(m.nt())) {
-          failed.resize(m.nt(), 0);
-          failed_v.resize(m.nt());
-        }
-        failed[t] = ed.next_stamp();
-        const int32_t* tv = m.tet(t);
-        std::copy(tv, tv + 4, failed_v[t].begin());
+        memo.refused[key(t)] = signature(t);
       }
     }
     st.inserted += ins;
     st.removed += rem;
     if (log)
       log(LogLevel::Info, "insert pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
-                              " tets visited, " + std::to_string(ins) + " vertices inserted, " + std::to_string(rem) +
-                              " removed");
+                              " tets visited (" + std::to_string(st.skipped - skipped0) +
+                              " unchanged since refused), " + std::to_string(ins) + " vertices inserted, " +
+                              std::to_string(rem) + " removed");
     if (ins + rem == 0) break;
   }
   st.alpha_worst_after = INFINITY;

@@ -15,16 +15,22 @@
 // end so every existing vertex id, and so every listed triangle and edge,
 // keeps its meaning.  Volume per region is conserved (same cavity, same ref).
 //
-// Cavities tried: t plus every subset of its joinable face neighbours, then
-// t plus all of them grown one tet at a time across the unconstrained outer
-// face whose fan tet is worst (<= 12 steps, stop after 3 without gain, <= 32
-// tets / 32 outer faces); every vertex of the cavity must stay on its boundary.
-// Cost: per visited tet <= ~28 compass searches of <= 400 early-exit fan
-// evaluations; a pass is O(nt) to scan plus the visited tets, then one
-// TopoEditor::finish().  Impeller (438k tets) with --allow-insert: 73 s.
+// Cavities tried: t alone, then t plus all its joinable face neighbours
+// grown one tet at a time across the unconstrained outer face whose fan tet
+// is worst (<= 12 steps, stop after 3 without gain, <= 32 tets / 32 outer
+// faces); every vertex of the cavity must stay on its boundary.  Each gets
+// a coarse compass search, the best one a fine one.  Cost: per tried tet
+// <= 14 compass searches of <= 400 early-exit fan evaluations; a pass is
+// O(nt) to scan plus the tried tets, then one TopoEditor::finish().  A tet
+// refused before is not tried again while its signature is unchanged
+// (InsertMemo; the remesher's rounds share one): on raw tetgen output of
+// tests/data/gmsh/thin_wall.geo (tw_A) most of the ~3,000 tets of each pass
+// are skipped so, and the whole run took 0.75x the time (docs/benchmarks.md,
+// twenty-second session).
 #pragma once
 #include <atomic>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include "tetopt/guard.hpp"
@@ -33,6 +39,18 @@
 #include "tetopt/status.hpp"
 
 namespace tetopt {
+
+/// What insert_pass remembers between calls (InsertOptions::memo): for each
+/// tet it tried and could neither insert into nor remove a vertex at, a
+/// signature of what the attempt started from (the tet and its face
+/// neighbours: their vertices and those vertices' coordinates, the
+/// vertices across their faces, their refs and constrained faces; no tet
+/// index, so that it survives the compaction of tet slots).  A tet whose
+/// signature is unchanged is not tried again.  Owned by the caller, valid
+/// for one mesh.
+struct InsertMemo {
+  std::unordered_map<uint64_t, uint64_t> refused;  ///< hash of the sorted vertex ids -> signature
+};
 
 struct InsertOptions {
   double quality_threshold = 0.3;  ///< visit tets with alpha below this
@@ -50,10 +68,17 @@ struct InsertOptions {
   bool insert = true;  ///< false: removal only
   Objective objective = Objective::Alpha;  ///< the q that stands for alpha above (objective.hpp)
   const Guard* guard = nullptr;            ///< guards (guard.hpp); nullptr: none
+  /// Refusals remembered across calls (see InsertMemo); nullptr: only
+  /// across the passes of this call.  The guards only tighten between
+  /// calls and the attempt is a function of what the signature covers, so
+  /// a remembered refusal stands (up to the cavity growing past the face
+  /// neighbours; see insert_pass).
+  InsertMemo* memo = nullptr;
 };
 
 struct InsertStats {
   int64_t inserted = 0, tried = 0;
+  int64_t skipped = 0;                    ///< not tried: refused before, signature unchanged (InsertMemo)
   int64_t removed = 0;                    ///< vertices removed (InsertOptions::remove)
   std::vector<int32_t> removed_vertices;  ///< their ids (unreferenced now; compact_vertices drops them)
   double alpha_worst_before = 0, alpha_worst_after = 0;

@@ -148,6 +148,67 @@ TEST(Insert, ThinSlabRaisesWorstAlphaAndPassesInvariantCheck) {
   EXPECT_FALSE(check_invariants(shrunk, snap).ok());
 }
 
+// InsertMemo: a pass that ended with nothing left to insert or remove,
+// called again with its memo, tries nothing and changes nothing; a fresh
+// pass without the memo tries those tets and agrees (refuses every one, the
+// mesh unchanged bit for bit); moving one free vertex makes exactly the tets
+// whose signature covers it worth a try again.
+TEST(Insert, MemoSkipsWhatARefusalStillCoversAndNothingElse) {
+  int64_t retried_total = 0;
+  for (uint64_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE(seed);
+    TetMesh m = rough_box(1, seed);
+    ASSERT_TRUE(build_topology(m).ok());
+    InsertMemo memo;
+    InsertOptions o;
+    o.quality_threshold = 0.4;
+    o.remove = true;
+    o.passes = 50;
+    o.memo = &memo;
+    const InsertStats first = insert_pass(m, o);
+    ASSERT_TRUE(first.status.ok());
+    ASSERT_FALSE(memo.refused.empty());
+    const TetMesh settled = m;
+    const InsertStats again = insert_pass(m, o);
+    EXPECT_EQ(again.tried, 0);
+    EXPECT_GT(again.skipped, 0);
+    EXPECT_EQ(m.tets, settled.tets);
+    EXPECT_EQ(m.xyz, settled.xyz);
+    InsertOptions fresh = o;
+    fresh.memo = nullptr;
+    const InsertStats check = insert_pass(m, fresh);
+    EXPECT_EQ(check.tried, again.skipped);
+    EXPECT_EQ(check.inserted + check.removed, 0);
+    EXPECT_EQ(m.tets, settled.tets);
+    EXPECT_EQ(m.xyz, settled.xyz);
+    // Move one free vertex of a tet the pass visits (alpha below the
+    // threshold, at least InsertOptions::min_kind constrained vertices) or
+    // of a face neighbour of one, by a hair (every tet stays positive): the
+    // tets whose signature holds it are tried again.
+    int32_t v = -1;
+    for (int32_t t = 0; t < m.nt() && v < 0; ++t) {
+      if (!(tet_alpha(m, t) < 0.4) || m.tet_kind[t] < o.min_kind) continue;
+      for (int f = -1; f < 4 && v < 0; ++f) {
+        const int32_t u = f < 0 ? t : m.adj[4 * static_cast<size_t>(t) + f] / 4;
+        if (f >= 0 && m.adj[4 * static_cast<size_t>(t) + f] < 0) continue;
+        for (int k = 0; k < 4 && v < 0; ++k)
+          if (!m.vert_constrained[m.tet(u)[k]]) v = m.tet(u)[k];
+      }
+    }
+    ASSERT_GE(v, 0);
+    m.xyz[3 * static_cast<size_t>(v)] += 1e-9;
+    for (int32_t t = 0; t < m.nt(); ++t) {
+      const int32_t* tv = m.tet(t);
+      ASSERT_EQ(orient3d(m.point(tv[0]), m.point(tv[1]), m.point(tv[2]), m.point(tv[3])), Sign::Positive);
+    }
+    const InsertStats moved = insert_pass(m, o);
+    EXPECT_GT(moved.tried, 0);
+    EXPECT_LT(moved.tried, check.tried);
+    retried_total += moved.tried;
+  }
+  RecordProperty("retried", static_cast<int>(retried_total));
+}
+
 // Vertex removal (TopoEditor::remove_vertex, edge contraction) on jittered
 // boxes: every removal raises the worst alpha of the star it replaces, so the
 // mesh's worst alpha never drops; the removed vertices end unreferenced; the
