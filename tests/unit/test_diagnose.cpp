@@ -836,3 +836,40 @@ TEST(Diagnose, ThinSlabVertexApexBound) {
   EXPECT_TRUE(std::isnan(free_sb.vertex_alpha));
   EXPECT_EQ(free_sb.vertex_apex, -1);
 }
+
+// improve with insertion runs its rounds once more when the worst alpha ends
+// below 0.9 of what the boundary allows.  On the slab of
+// ThinSlabVertexApexBound the rounds end at a side's vertex bound, far
+// below the triangles' own bound (what improve's cheap mesh-wide bound
+// sees): the walled sides of the tets near the worst (near_worst_cap in
+// improve.cpp) say so, and the rounds do not run again.
+TEST(Diagnose, ImproveRunsNoRoundsAgainWhereAWalledSideCapsTheWorst) {
+  TetMesh m = thin_slab(6, 0.15);
+  const Diagnosis dg = diagnose(m, {0.3, true});
+  ASSERT_FALSE(std::isnan(dg.vertex_bound));
+  TetMesh w = m;
+  ImproveOptions o;
+  o.mode = ImproveMode::Best;
+  o.allow_insert = o.allow_remove = true;
+  ImproveReport r;
+  std::vector<std::string> lines;
+  const LogFn log = [&](LogLevel, const std::string& s) { lines.push_back(s); };
+  ASSERT_TRUE(improve(w, o, r, log).ok());
+  double worst = 1;
+  for (int32_t t = 0; t < w.nt(); ++t) worst = std::min(worst, tet_alpha(w, t));
+  // The cheap bound alone would have asked for the rounds once more.
+  ASSERT_LT(worst, 0.9 * mesh_bound(w, 1, false, false).alpha);
+  double cap = NAN;
+  bool again = false;
+  const std::string said = "walled sides near the worst allow alpha ";
+  for (const std::string& s : lines) {
+    if (s.rfind(said, 0) == 0) cap = std::stod(s.substr(said.size()));
+    again = again || s.rfind("rounds again", 0) == 0;
+  }
+  ASSERT_FALSE(std::isnan(cap));
+  EXPECT_FALSE(again);
+  EXPECT_LT(worst, cap + 1e-6) << "a bound";  // the log prints 6 decimals
+  EXPECT_GE(worst, 0.9 * cap);
+  EXPECT_GE(cap + 1e-6, dg.vertex_bound);
+}
+
