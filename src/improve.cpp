@@ -401,8 +401,9 @@ class Driver {
         r_.removed_vertices.insert(r_.removed_vertices.end(), is.removed_vertices.begin(), is.removed_vertices.end());
         r_.seconds_topo += since(t);
         if (!is.status) return is.status;
-        // tried + skipped: a tet skipped as unchanged since its refusal
-        // (InsertMemo) counts as the refusal it would have met again.
+        // tried + skipped: a tet skipped as unchanged since its refusal in
+        // an earlier call (InsertMemo) counts as the refusal it would have
+        // met again, as it did when it was tried again.
         if (!(is.alpha_worst_after > is.alpha_worst_before) &&
             static_cast<double>(is.inserted + is.removed) < kInsertLive * static_cast<double>(is.tried + is.skipped))
           insert_live = false;
@@ -845,7 +846,9 @@ constexpr double kPoorBelow = 0.2;
 // (walls facing it; and the best apex among the vertices there when no new
 // vertex is inside the wall, SideBound::vertex_alpha).  A side whose bound
 // is below worst / kAgainBelow caps the mesh's worst alpha there in every
-// mesh that keeps the boundary (and adds no vertex inside that wall).  On
+// mesh that keeps the boundary (vertex_alpha: and adds no vertex inside
+// that wall; the rounds may add one, so that part rests on the argument in
+// docs/measures.md that such a vertex cannot help, not on a proof).  On
 // raw tetgen output of tests/data/gmsh/thin_wall.geo (tw_A) the rounds end
 // at 0.0735 and a side of tet 2239 allows 0.0770 with the wall's vertices;
 // the rounds once more cost 38% of the run there (0.69 of 1.80 s) and

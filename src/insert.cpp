@@ -20,6 +20,9 @@
 
 namespace tetopt {
 
+// The most tets of a free vertex's star that a signature covers.
+constexpr size_t kStarMax = 128;
+
 InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   InsertStats st;
@@ -41,10 +44,13 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   // A tet refused before (in an earlier pass, or an earlier call sharing
   // o.memo) is not tried again while its signature (InsertMemo) is what it
   // was then: no commit has replaced it or its face neighbours or changed
-  // their adjacency, and no vertex of theirs has moved (the cavities start
-  // there).  The attempt can reach further (the grown cavity, a removed
-  // vertex's star): a change only there goes unseen, as it did when this
-  // memo lasted one call.
+  // what lies across their faces, no vertex of theirs has moved, and (with
+  // removal on) the stars of its free vertices, which a removal replaces,
+  // are the same tets at the same places.  A tet refused in this call is
+  // also tried again once a commit has made a tet at a vertex of it or of
+  // its face neighbours (TopoEditor::touched_since, what this pass checked
+  // alone before the memo).  Not covered: a cavity grown past the face
+  // neighbours, changed only there since the refusal.
   InsertMemo local;
   InsertMemo& memo = o.memo ? *o.memo : local;
   auto mixer = [](uint64_t& h, uint64_t x) {  // splitmix64's finaliser over the running hash
@@ -61,8 +67,19 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     for (const int32_t v : q) mixer(h, static_cast<uint32_t>(v));
     return h;
   };
+  // What else an attempt depends on: the options (a memo shared by calls
+  // with other options must not stand for them).
+  uint64_t seed = 0x9E3779B97F4A7C15ull;
+  {
+    uint64_t mb;
+    std::memcpy(&mb, &o.margin, sizeof mb);
+    mixer(seed, mb);
+    mixer(seed, static_cast<uint64_t>(o.insert) | static_cast<uint64_t>(o.remove) << 1 |
+                    static_cast<uint64_t>(o.objective) << 8);
+  }
+  std::vector<int32_t> star;
   auto signature = [&](int32_t t) {
-    uint64_t h = 0x9E3779B97F4A7C15ull;
+    uint64_t h = seed;
     auto tet = [&](int32_t u) {
       const int32_t* tv = m.tet(u);
       for (int k = 0; k < 4; ++k) {
@@ -82,11 +99,39 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     tet(t);
     for (int f = 0; f < 4; ++f)
       if (const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f]; nb >= 0) tet(nb / 4);
+    if (o.remove)
+      for (int k = 0; k < 4; ++k) {
+        // The star of free vertex v: breadth first from t across the faces
+        // that contain v (what TopoEditor::contract gathers), in an order
+        // set by the tets' own vertex orders, not their slots.
+        const int32_t v = m.tet(t)[k];
+        if (m.vert_constrained[v]) continue;
+        star.assign(1, t);
+        for (size_t i = 0; i < star.size() && star.size() < kStarMax; ++i)
+          for (int f = 0; f < 4; ++f) {
+            if (m.tet(star[i])[f] == v) continue;  // the face opposite v does not contain it
+            const int32_t nb = m.adj[4 * static_cast<size_t>(star[i]) + f];
+            if (nb >= 0 && std::find(star.begin(), star.end(), nb / 4) == star.end()) star.push_back(nb / 4);
+          }
+        for (size_t i = 1; i < star.size(); ++i) tet(star[i]);
+      }
     return h | 1;
   };
-  auto unchanged = [&](int32_t t) {
-    const auto it = memo.refused.find(key(t));
-    return it != memo.refused.end() && it->second == signature(t);
+  // This call's refusals: the epoch that began after each (by slot; slots
+  // keep their tets within a call) and the tet's vertices then.
+  std::vector<uint32_t> failed;
+  std::vector<std::array<int32_t, 4>> failed_v;
+  auto refused_here = [&](int32_t t) {
+    return static_cast<size_t>(t) < failed.size() && failed[t] != 0 &&
+           std::equal(m.tet(t), m.tet(t) + 4, failed_v[t].begin());
+  };
+  auto touched = [&](int32_t t) {
+    if (ed.touched_since(t, failed[t])) return true;
+    for (int f = 0; f < 4; ++f) {
+      const int32_t nb = m.adj[4 * static_cast<size_t>(t) + f];
+      if (nb >= 0 && ed.touched_since(nb / 4, failed[t])) return true;
+    }
+    return false;
   };
   for (int p = 0; p < std::max(1, o.passes); ++p) {
     work.clear();
@@ -101,15 +146,24 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     const int64_t skipped0 = st.skipped;
     for (int32_t t : work) {
       if (!ed.alive(t) || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
-      if (unchanged(t)) {
-        ++st.skipped;
-        continue;
+      if (const auto it = memo.refused.find(key(t)); it != memo.refused.end() && it->second == signature(t)) {
+        const bool here = refused_here(t);
+        if (!here || !touched(t)) {
+          st.skipped += !here;  // skips of this call's refusals were never counted as tries
+          continue;
+        }
       }
       ++st.tried;
       if (o.insert && ed.insert_vertex(t) == TopoResult::Applied) ++ins;
       else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) ++rem;
       else if (ed.alive(t)) {
         memo.refused[key(t)] = signature(t);
+        if (failed.size() < static_cast<size_t>(m.nt())) {
+          failed.resize(m.nt(), 0);
+          failed_v.resize(m.nt());
+        }
+        failed[t] = ed.next_stamp();
+        std::copy(m.tet(t), m.tet(t) + 4, failed_v[t].begin());
       }
     }
     st.inserted += ins;
@@ -117,7 +171,7 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     if (log)
       log(LogLevel::Info, "insert pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
                               " tets visited (" + std::to_string(st.skipped - skipped0) +
-                              " unchanged since refused), " + std::to_string(ins) + " vertices inserted, " +
+                              " unchanged since refused in an earlier call), " + std::to_string(ins) + " vertices inserted, " +
                               std::to_string(rem) + " removed");
     if (ins + rem == 0) break;
   }

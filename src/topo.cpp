@@ -1193,7 +1193,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   // 2 of them ended accepted; 64 that started between kFineWorth and the
   // need did (twenty-second session, an instrumented build).
   set_old_tets(c, best_old, best_nold);
-  if (have_x && !(best_f < kFineWorth * (c.old_min + o_.margin))) {
+  if (const double need = c.old_min + o_.margin; have_x && !(need > 0 && best_f < kFineWorth * need)) {
     nold = best_nold;
     std::copy(best_old, best_old + nold, old);
     lead = 0;

@@ -19,7 +19,8 @@
 // grown one tet at a time across the unconstrained outer face whose fan tet
 // is worst (<= 12 steps, stop after 3 without gain, <= 32 tets / 32 outer
 // faces); every vertex of the cavity must stay on its boundary.  Each gets
-// a coarse compass search, the best one a fine one.  Cost: per tried tet
+// a coarse compass search, the best one a fine one unless the coarse one
+// stayed below 0.9 of what acceptance needs.  Cost: per tried tet
 // <= 14 compass searches of <= 400 early-exit fan evaluations; a pass is
 // O(nt) to scan plus the tried tets, then one TopoEditor::finish().  A tet
 // refused before is not tried again while its signature is unchanged
@@ -44,10 +45,11 @@ namespace tetopt {
 /// tet it tried and could neither insert into nor remove a vertex at, a
 /// signature of what the attempt started from (the tet and its face
 /// neighbours: their vertices and those vertices' coordinates, the
-/// vertices across their faces, their refs and constrained faces; no tet
-/// index, so that it survives the compaction of tet slots).  A tet whose
-/// signature is unchanged is not tried again.  Owned by the caller, valid
-/// for one mesh.
+/// vertices across their faces, their refs and constrained faces; with
+/// removal on, the same of the stars of its free vertices; the options
+/// that change an attempt; no tet index, so that it survives the
+/// compaction of tet slots).  A tet whose signature is unchanged is not
+/// tried again.  Owned by the caller, valid for one mesh.
 struct InsertMemo {
   std::unordered_map<uint64_t, uint64_t> refused;  ///< hash of the sorted vertex ids -> signature
 };
@@ -69,16 +71,17 @@ struct InsertOptions {
   Objective objective = Objective::Alpha;  ///< the q that stands for alpha above (objective.hpp)
   const Guard* guard = nullptr;            ///< guards (guard.hpp); nullptr: none
   /// Refusals remembered across calls (see InsertMemo); nullptr: only
-  /// across the passes of this call.  The guards only tighten between
-  /// calls and the attempt is a function of what the signature covers, so
-  /// a remembered refusal stands (up to the cavity growing past the face
-  /// neighbours; see insert_pass).
+  /// across the passes of this call.  A refusal stands while what the
+  /// signature covers is unchanged, provided the guards have not loosened
+  /// since (the caller's part: improve's rounds only tighten them, and
+  /// start a new memo with each trial), except where a cavity grown past
+  /// the face neighbours changed only there (see insert_pass).
   InsertMemo* memo = nullptr;
 };
 
 struct InsertStats {
   int64_t inserted = 0, tried = 0;
-  int64_t skipped = 0;                    ///< not tried: refused before, signature unchanged (InsertMemo)
+  int64_t skipped = 0;                    ///< not tried: refused in an earlier call, signature unchanged (InsertMemo)
   int64_t removed = 0;                    ///< vertices removed (InsertOptions::remove)
   std::vector<int32_t> removed_vertices;  ///< their ids (unreferenced now; compact_vertices drops them)
   double alpha_worst_before = 0, alpha_worst_after = 0;
