@@ -418,8 +418,18 @@ DihedralEdges dihedral_edges(Measure k) {
   e.fail_cos = std::cos(mi.thresholds[0].value / kRad2Deg);
   return e;
 }
-const DihedralEdges kDihMinEdges = dihedral_edges(Measure::DihedralMin);
-const DihedralEdges kDihMaxEdges = dihedral_edges(Measure::DihedralMax);
+// Built on first use, not at static initialisation: an allocation that
+// fails there cannot be reported (the process aborts before main, as
+// `tetopt --version` did under `ulimit -v 10000`, tests/scripts/test_oom.sh),
+// while in main it is the CLI's out-of-memory exit.
+const DihedralEdges& dih_min_edges() {
+  static const DihedralEdges e = dihedral_edges(Measure::DihedralMin);
+  return e;
+}
+const DihedralEdges& dih_max_edges() {
+  static const DihedralEdges e = dihedral_edges(Measure::DihedralMax);
+  return e;
+}
 
 struct Part {
   std::array<Acc, kMeasureCount> acc;
@@ -474,6 +484,8 @@ void measure_block(const TetMesh& m, bool faces, int32_t t0, int32_t t1, Part& p
   const MeasureInfo& non_ortho = measure_info(Measure::NonOrthogonality);
   const MeasureInfo& skew = measure_info(Measure::FaceSkewness);
   auto acc = [&](Measure k) -> Acc& { return part.acc[static_cast<size_t>(k)]; };
+  const DihedralEdges& dih_min = dih_min_edges();
+  const DihedralEdges& dih_max = dih_max_edges();
   for (int32_t t = t0; t < t1; ++t) {
     const int32_t* v = m.tet(t);
     const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
@@ -499,8 +511,8 @@ void measure_block(const TetMesh& m, bool faces, int32_t t0, int32_t t1, Part& p
       cmin = std::min(cmin, cs);
     }
     if (nan) cmax = cmin = NAN;
-    add_dihedral(part.dih_min, kDihMinEdges, true, cmax, t);
-    add_dihedral(part.dih_max, kDihMaxEdges, false, cmin, t);
+    add_dihedral(part.dih_min, dih_min, true, cmax, t);
+    add_dihedral(part.dih_max, dih_max, false, cmin, t);
     if (!faces) continue;
     for (int f = 0; f < 4; ++f) {
       const int32_t nb = m.adj[4 * static_cast<size_t>(t) + static_cast<size_t>(f)];

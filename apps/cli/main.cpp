@@ -1,6 +1,7 @@
 // tetopt command line: a thin front end over the library (no algorithms here).
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -47,7 +48,51 @@ const char* kMainHelp =
 
 }  // namespace
 
+// Out of memory must stay a message (exit 2 / 4), never an abort.  With
+// almost no address space left (ulimit -v just above what the shared
+// libraries map), the C++ runtime may have no emergency pool for
+// exceptions, and a failed allocation then aborts ("terminate called
+// without an active exception", tests/scripts/test_oom.sh at 10000 KiB)
+// because the bad_alloc itself cannot be allocated (and, after the
+// re-execution with glibc.malloc.hugetlb=1, the heap grows only by 2 MiB
+// steps, so a small request fails once those are out of reach).  So main
+// holds a reserve on the heap (below malloc's mmap threshold, so that
+// freeing it leaves it in malloc's free lists rather than returning it to
+// the system): the first failed operator new releases it and retries (a
+// small request then succeeds), a later one throws as usual, with the
+// reserve's room left for the exception.  Without the reserve at start:
+// one line and exit 2.
+namespace {
+constexpr size_t kStartupReserve = size_t{1} << 16;
+std::atomic<void*> g_reserve{nullptr};
+void release_reserve() {
+  if (void* r = g_reserve.exchange(nullptr)) {
+    std::free(r);
+    return;
+  }
+  std::set_new_handler(nullptr);
+  throw std::bad_alloc();
+}
+}  // namespace
+
 int main(int argc, char** argv) {
+  g_reserve = std::malloc(kStartupReserve);
+  if (!g_reserve) {
+    // The command and its input named as the other out-of-memory messages
+    // name them, control characters escaped, without allocating.
+    std::fputs("tetopt", stderr);
+    for (int i = 1; i < argc && i < 3; ++i) {
+      std::fputc(' ', stderr);
+      for (const char* c = argv[i]; *c; ++c) {
+        const auto u = static_cast<unsigned char>(*c);
+        if (u < 0x20 || u == 0x7f) std::fprintf(stderr, "\\x%02x", u);
+        else std::fputc(*c, stderr);
+      }
+    }
+    std::fputs(": out of memory at start-up; nothing written\n", stderr);
+    return tetopt_cli::kExitInput;
+  }
+  std::set_new_handler(release_reserve);
   tetopt_cli::reexec_with_huge_pages(argv);
   tetopt_cli::keep_freed_memory();
   std::signal(SIGINT, argc >= 2 && std::string(argv[1]) == "improve" ? tetopt_cli::on_sigint
