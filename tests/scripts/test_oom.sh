@@ -21,9 +21,10 @@ for ext in mesh meshb vtk vtu node; do
 done
 # Limits in KiB of address space, from too small to run at all upward.
 # 10000-12000: just above what the shared libraries map, where the first
-# allocations of a run fail; until main kept a reserve for that, 30-80% of
-# the runs there aborted ("terminate called without an active exception",
-# exit 134), depending on where the address-space layout put the heap.
+# allocations of a run fail; until main kept a reserve for that, many runs
+# there aborted ("terminate called without an active exception", exit 134:
+# convert at 10500 KiB in 7 of 8 runs, quality in up to 12 of 15), depending
+# on where the address-space layout put the heap.
 limits="10000 10500 11000 11500 12000 15000 20000 30000 40000 50000 60000 80000 120000"
 
 # run CMD...: sets rc and err, under limit $lim
