@@ -3,6 +3,8 @@
 # beside the default mode and MMG's -optim -nosurf, in the same run, on
 #   * raw `tetgen -pQ` output of tests/data/gmsh/body_in_box.geo (s = 0.5,
 #     0.25): a body in a flow box with no interior vertex;
+#   * raw `tetgen -pAQ` output of cylinder_hole.geo (h = 0.1) and
+#     thin_wall.geo (ch_0p1_A, tw_A: inner surfaces kept as interfaces);
 #   * the demo impeller at s = 2 (a mesher's output, two regions);
 #   * ../shared/meshes hinge_raw (raw tetgen), tire and flange when present.
 # Every output is judged by ../shared/tools/meshcheck.py compare (boundary
@@ -32,6 +34,20 @@ for s in 0.5 0.25; do
   fi
   meshes+=("$OUT/$n.mesh")
 done
+# Raw `tetgen -pAQ` output whose inner surfaces are region interfaces (kept
+# by every tool): a cylinder with a spherical hole at h = 0.1 (ch_0p1_A) and
+# a cylinder wall 0.005 thick in a box (tw_A, a wall one tet thick).
+raw() {  # name, geo, gmsh arguments...
+  local n=$1 g=$2; shift 2
+  if [ ! -f "$OUT/$n.mesh" ]; then
+    gmsh -2 -nt 1 "$@" -format mesh "$ROOT/tests/data/gmsh/$g" -o "$OUT/${n}_surf.mesh" > /dev/null 2>&1
+    tetgen -pAQ "$OUT/${n}_surf.mesh" > /dev/null 2>&1
+    "$T" convert "$OUT/${n}_surf.1.node" "$OUT/$n.mesh" > /dev/null
+  fi
+  meshes+=("$OUT/$n.mesh")
+}
+raw ch_0p1_A cylinder_hole.geo -setnumber h 0.1
+raw tw_A thin_wall.geo
 [ -f "$OUT/impeller_s2.mesh" ] || gmsh -3 -nt 1 -setnumber s 2 -format mesh "$ROOT/demo/impeller.geo" -o "$OUT/impeller_s2.mesh" > /dev/null 2>&1
 meshes+=("$OUT/impeller_s2.mesh")
 for f in hinge_raw/hinge_raw.mesh tire/tire.vtk flange/flange.mesh; do [ -f "$SH/$f" ] && meshes+=("$SH/$f"); done
