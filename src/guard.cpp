@@ -134,60 +134,48 @@ void Guard::apply_floor_and_sine() {
     sine_enough_ = 2;  // never: always measure the angles
 }
 
+template <class F>
+bool Guard::each_measure(const double* a, const double* b, const double* c, const double* d, F&& f) const {
+  if (!f(Measure::Alpha, alpha(a, b, c, d), true)) return false;
+  if (!f(Measure::MeanRatio, mean_ratio(a, b, c, d), true)) return false;
+  if (!f(Measure::ScaledJacobian, scaled_jacobian(a, b, c, d), true)) return false;
+  const double sm = sine_min(a, b, c, d);
+  if (!f(Measure::SineMin, sm, true)) return false;
+  if (!f(Measure::RadiusRatio, radius_ratio(a, b, c, d), true)) return false;
+  if (!f(Measure::EquivolumeSkewness, equivolume_skewness(a, b, c, d), false)) return false;
+  if (!(sm >= sine_enough_)) {
+    double lo_deg, hi_deg;
+    dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
+    if (!f(Measure::DihedralMin, lo_deg, true)) return false;
+    if (!f(Measure::DihedralMax, hi_deg, false)) return false;
+  }
+  return true;
+}
+
 bool Guard::admits(const double* a, const double* b, const double* c, const double* d) const {
   if (!on_) return true;
-  auto refuse = [&](Measure k) {
+  // Cheapest first; each comparison is "not worse than the extreme" (NaN
+  // fails); a failure is counted against its measure unless exempt.
+  return each_measure(a, b, c, d, [&](Measure k, double v, bool higher) {
+    const double e = worst_[idx(k)];
+    if (higher ? v >= e : v <= e) return true;
     if (exempt_[idx(k)]) return true;
     if (tl_deferred) ++(*tl_deferred)[idx(k)];
     else refused_[idx(k)].fetch_add(1, std::memory_order_relaxed);
     return false;
-  };
-  // Cheapest first; each comparison is "not worse than the extreme" (NaN
-  // fails).
-  const double al = alpha(a, b, c, d);
-  if (!(al >= worst_[idx(Measure::Alpha)]) && !refuse(Measure::Alpha)) return false;
-  const double mr = mean_ratio(a, b, c, d);
-  if (!(mr >= worst_[idx(Measure::MeanRatio)]) && !refuse(Measure::MeanRatio)) return false;
-  const double sj = scaled_jacobian(a, b, c, d);
-  if (!(sj >= worst_[idx(Measure::ScaledJacobian)]) && !refuse(Measure::ScaledJacobian)) return false;
-  const double sm = sine_min(a, b, c, d);
-  if (!(sm >= worst_[idx(Measure::SineMin)]) && !refuse(Measure::SineMin)) return false;
-  const double rr = radius_ratio(a, b, c, d);
-  if (!(rr >= worst_[idx(Measure::RadiusRatio)]) && !refuse(Measure::RadiusRatio)) return false;
-  const double sk = equivolume_skewness(a, b, c, d);
-  if (!(sk <= worst_[idx(Measure::EquivolumeSkewness)]) && !refuse(Measure::EquivolumeSkewness)) return false;
-  if (!(sm >= sine_enough_)) {
-    double lo_deg, hi_deg;
-    dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
-    if (!(lo_deg >= worst_[idx(Measure::DihedralMin)]) && !refuse(Measure::DihedralMin)) return false;
-    if (!(hi_deg <= worst_[idx(Measure::DihedralMax)]) && !refuse(Measure::DihedralMax)) return false;
-  }
-  return true;
+  });
 }
 
 double Guard::slack(const double* a, const double* b, const double* c, const double* d) const {
   if (!on_) return std::numeric_limits<double>::infinity();
   double s = std::numeric_limits<double>::infinity();
-  auto rel = [&](Measure k, double v, bool higher) {
-    if (exempt_[idx(k)]) return;
+  each_measure(a, b, c, d, [&](Measure k, double v, bool higher) {
     const double e = worst_[idx(k)];
-    if (std::isnan(e)) return;
+    if (exempt_[idx(k)] || std::isnan(e)) return true;
     const double r = (higher ? v - e : e - v) / std::max(std::fabs(e), 1e-300);
     s = std::isnan(r) ? -std::numeric_limits<double>::infinity() : std::min(s, r);
-  };
-  rel(Measure::Alpha, alpha(a, b, c, d), true);
-  rel(Measure::MeanRatio, mean_ratio(a, b, c, d), true);
-  rel(Measure::ScaledJacobian, scaled_jacobian(a, b, c, d), true);
-  const double sm = sine_min(a, b, c, d);
-  rel(Measure::SineMin, sm, true);
-  rel(Measure::RadiusRatio, radius_ratio(a, b, c, d), true);
-  rel(Measure::EquivolumeSkewness, equivolume_skewness(a, b, c, d), false);
-  if (!(sm >= sine_enough_)) {  // as admits(): otherwise both angle extremes hold
-    double lo_deg, hi_deg;
-    dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
-    rel(Measure::DihedralMin, lo_deg, true);
-    rel(Measure::DihedralMax, hi_deg, false);
-  }
+    return true;
+  });
   return s;
 }
 

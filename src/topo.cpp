@@ -62,6 +62,17 @@ void canonical(const int32_t in[3], int32_t out[3]) {
 
 bool same3(const int32_t a[3], const int32_t b[3]) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
 
+// The sum of the distances from x to the first vertex of each face[0..nf):
+// the length scale of insert_vertex's position searches.
+double face_distance_sum(const TetMesh& m, const int32_t (*face)[3], int nf, const double* x) {
+  double len = 0;
+  for (int i = 0; i < nf; ++i) {
+    const double* a = m.point(face[i][0]);
+    len += std::sqrt((a[0] - x[0]) * (a[0] - x[0]) + (a[1] - x[1]) * (a[1] - x[1]) + (a[2] - x[2]) * (a[2] - x[2]));
+  }
+  return len;
+}
+
 // Compass search (Kolda, Lewis & Torczon 2003, "Optimization by direct
 // search", SIAM Review 45): from x, whose value is fx, polls the first
 // ndir of kCompassDir (6: the axes, a positive spanning set; 14: the axes
@@ -1134,11 +1145,7 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     double px[3] = {best_x[0], best_x[1], best_x[2]};
     if (have_x)
       if (const double f3 = fan(px); f3 > fx) { fx = f3; std::copy(px, px + 3, x); }
-    double len = 0;
-    for (int i = 0; i < nf; ++i) {
-      const double* a = m_.point(face[i][0]);
-      len += std::sqrt((a[0] - x[0]) * (a[0] - x[0]) + (a[1] - x[1]) * (a[1] - x[1]) + (a[2] - x[2]) * (a[2] - x[2]));
-    }
+    const double len = face_distance_sum(m_, face, nf, x);
     const double h = h0_rel * len / nf;
     const double hmin = hmin_rel * len / nf;
     // The coarse search polls the 6 axes, the fine one the 14 axes and
@@ -1231,12 +1238,7 @@ bool TopoEditor::guarded_position(const int32_t (*face)[3], int nf, double need,
   };
   double gx = g(x);
   if (gx > 0) return true;
-  double len = 0;
-  for (int i = 0; i < nf; ++i) {
-    const double* a = m_.point(face[i][0]);
-    len += std::sqrt((a[0] - x[0]) * (a[0] - x[0]) + (a[1] - x[1]) * (a[1] - x[1]) + (a[2] - x[2]) * (a[2] - x[2]));
-  }
-  len /= std::max(nf, 1);
+  const double len = face_distance_sum(m_, face, nf, x) / std::max(nf, 1);
   double y[3] = {x[0], x[1], x[2]};
   gx = compass_axes([&](const double* z, double) { return g(z); }, y, gx, 0.05 * len, 1e-4 * len, 300, 0.0);
   if (!(gx > 0)) return false;

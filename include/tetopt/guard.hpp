@@ -117,6 +117,12 @@ class Guard {
   bool has_floor_ = false;
   std::array<double, kTetMeasureCount> floor_{};
   void apply_floor_and_sine();
+  // Calls f(k, value, higher_is_better) for each guarded measure of tet
+  // (a, b, c, d), cheapest first, while f returns true; the dihedral angles
+  // only where sine_min does not prove them already (sine_enough_).
+  // Returns whether every call returned true.  admits() and slack() share it.
+  template <class F>
+  bool each_measure(const double* a, const double* b, const double* c, const double* d, F&& f) const;
   mutable std::array<std::atomic<int64_t>, kTetMeasureCount> refused_{};
 };
 

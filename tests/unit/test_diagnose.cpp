@@ -594,6 +594,25 @@ TEST(Diagnose, AlphaCeilingIsAboveTheBestApex) {
 // facing wall.
 namespace {
 
+// The kept (constrained) faces of m whose three vertices lie at height z,
+// each with its tet, local face and points.
+struct KeptFace {
+  int32_t t;
+  int f;
+  const double* p[3];
+};
+std::vector<KeptFace> kept_faces_at(const TetMesh& m, double z) {
+  std::vector<KeptFace> out;
+  for (int32_t t = 0; t < m.nt(); ++t)
+    for (int f = 0; f < 4; ++f) {
+      if (!(m.face_mask[t] & (1u << f))) continue;
+      const int32_t* v = m.tet(t);
+      KeptFace k{t, f, {m.point(v[kFaceVertex[f][0]]), m.point(v[kFaceVertex[f][1]]), m.point(v[kFaceVertex[f][2]])}};
+      if (k.p[0][2] == z && k.p[1][2] == z && k.p[2][2] == z) out.push_back(k);
+    }
+  return out;
+}
+
 // make_box_mesh's nx x ny x 1 slab, flattened to thickness d.
 TetMesh thin_slab(int n, double d) {
   BoxMeshOptions bo;
@@ -644,13 +663,10 @@ TEST(Diagnose, ThinSlabCapsTheApex) {
   }();
   int checked = 0;
   double worst_side = 1;
-  for (int32_t t = 0; t < m.nt(); ++t)
-    for (int f = 0; f < 4; ++f) {
-      if (!(m.face_mask[t] & (1u << f))) continue;
-      const int32_t* v = m.tet(t);
-      const double *a = m.point(v[kFaceVertex[f][0]]), *b = m.point(v[kFaceVertex[f][1]]),
-                   *c = m.point(v[kFaceVertex[f][2]]);
-      if (!(a[2] == 0 && b[2] == 0 && c[2] == 0)) continue;  // the bottom face
+  for (const KeptFace& k : kept_faces_at(m, 0)) {  // the bottom face
+    const int32_t t = k.t;
+    const int f = k.f;
+    const double *a = k.p[0], *b = k.p[1], *c = k.p[2];
       const SideBound sb = side_bound(m, 4 * t + f);
       worst_side = std::min(worst_side, sb.alpha);
       if (checked++ % 9) continue;  // sample a few of them
@@ -728,13 +744,10 @@ TEST(Diagnose, ThinWallInsideABoxCapsOnlyItsInside) {
   ASSERT_TRUE(build_topology(m).ok());
   int inside = 0, outside = 0;
   double inside_min = 1;
-  for (int32_t t = 0; t < m.nt(); ++t)
-    for (int f = 0; f < 4; ++f) {
-      if (!(m.face_mask[t] & (1u << f))) continue;
-      const int32_t* v = m.tet(t);
-      const double *a = m.point(v[kFaceVertex[f][0]]), *b = m.point(v[kFaceVertex[f][1]]),
-                   *c = m.point(v[kFaceVertex[f][2]]);
-      if (!(a[2] == 1.5 && b[2] == 1.5 && c[2] == 1.5)) continue;  // the wall's lower face
+  for (const KeptFace& k : kept_faces_at(m, 1.5)) {  // the wall's lower face
+    const int32_t t = k.t;
+    const int f = k.f;
+    const double *a = k.p[0], *b = k.p[1], *c = k.p[2];
       const SideBound sb = side_bound(m, 4 * t + f);
       const double own = best_apex(a, b, c).value;
       if (m.tet_ref[t] == 2) {
@@ -783,13 +796,10 @@ TEST(Diagnose, ThinSlabVertexApexBound) {
   TetMesh m = thin_slab(6, d);
   int checked = 0;
   double lowest = 1;
-  for (int32_t t = 0; t < m.nt(); ++t)
-    for (int f = 0; f < 4; ++f) {
-      if (!(m.face_mask[t] & (1u << f))) continue;
-      const int32_t* v = m.tet(t);
-      const double *a = m.point(v[kFaceVertex[f][0]]), *b = m.point(v[kFaceVertex[f][1]]),
-                   *c = m.point(v[kFaceVertex[f][2]]);
-      if (!(a[2] == 0 && b[2] == 0 && c[2] == 0)) continue;  // the bottom face
+  for (const KeptFace& k : kept_faces_at(m, 0)) {  // the bottom face
+    const int32_t t = k.t;
+    const int f = k.f;
+    const double *a = k.p[0], *b = k.p[1], *c = k.p[2];
       SCOPED_TRACE(t);
       const SideBound sb = side_bound(m, 4 * t + f);
       ASSERT_TRUE(sb.walled);
