@@ -394,6 +394,7 @@ class Driver {
         io.objective = o_.objective;
         io.guard = guard_;
         io.memo = &insert_memo_;
+        io.threads = threads_;
         const InsertStats is = insert_pass(m_, io, sub_log_);
         alpha_.clear();
         r_.insertions += is.inserted;

@@ -37,6 +37,7 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   to.margin = o.margin;
   to.objective = o.objective;
   to.guard = o.guard;
+  to.threads = o.threads;
   TopoEditor ed(m, to);
   st.alpha_worst_before = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t) st.alpha_worst_before = std::min(st.alpha_worst_before, ed.cached_alpha(t));
@@ -143,28 +144,65 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     std::stable_sort(work.begin(), work.end(),
                      [&](int32_t a, int32_t b) { return ed.cached_alpha(a) < ed.cached_alpha(b); });
     int64_t ins = 0, rem = 0;
-    const int64_t skipped0 = st.skipped;
-    for (int32_t t : work) {
-      if (!ed.alive(t) || !(ed.cached_alpha(t) < o.quality_threshold)) continue;
+    const int64_t skipped0 = st.skipped, used_p = ed.inserts_used(), redone_p = ed.inserts_redone();
+    // Whether t is tried now: 2 yes; 1 no, refused in an earlier call with
+    // what its signature covers unchanged (counted as skipped); 0 no (dead,
+    // above the threshold, or refused in this call and not touched since:
+    // those skips were never counted as tries).
+    auto verdict = [&](int32_t t) {
+      if (!ed.alive(t) || !(ed.cached_alpha(t) < o.quality_threshold)) return 0;
       if (const auto it = memo.refused.find(key(t)); it != memo.refused.end() && it->second == signature(t)) {
         const bool here = refused_here(t);
-        if (!here || !touched(t)) {
-          st.skipped += !here;  // skips of this call's refusals were never counted as tries
+        if (!here || !touched(t)) return here ? 0 : 1;
+      }
+      return 2;
+    };
+    // Windows of `win` entries of work: the position searches of the tets
+    // to be tried at the window's start run first, in parallel
+    // (TopoEditor::plan_inserts); then the entries go in order as before,
+    // each using its search when no commit has changed what it read, so
+    // the pass ends where the serial one does.  The window halves while
+    // more than 1 search in 8 is made again and doubles while fewer than 1
+    // in 32 are (as TopoEditor::improve_tets does).
+    constexpr size_t kWinMin = 8, kWinMax = 256;
+    size_t win = 32;
+    std::vector<int32_t> batch;
+    std::vector<int> slot;  // per entry of the window: its search, or -1
+    for (size_t w0 = 0; w0 < work.size();) {
+      const size_t w1 = std::min(work.size(), w0 + win);
+      batch.clear();
+      slot.assign(w1 - w0, -1);
+      if (o.threads != 1 && o.insert)
+        for (size_t k = w0; k < w1; ++k)
+          if (verdict(work[k]) == 2) {
+            slot[k - w0] = static_cast<int>(batch.size());
+            batch.push_back(work[k]);
+          }
+      if (ed.plan_inserts(batch.data(), static_cast<int>(batch.size())) == 0) std::fill(slot.begin(), slot.end(), -1);
+      const int64_t redone0 = ed.inserts_redone(), used0 = ed.inserts_used();
+      for (size_t k = w0; k < w1; ++k) {
+        const int32_t t = work[k];
+        if (const int v = verdict(t); v < 2) {
+          st.skipped += v;
           continue;
         }
-      }
-      ++st.tried;
-      if (o.insert && ed.insert_vertex(t) == TopoResult::Applied) ++ins;
-      else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) ++rem;
-      else if (ed.alive(t)) {
-        memo.refused[key(t)] = signature(t);
-        if (failed.size() < static_cast<size_t>(m.nt())) {
-          failed.resize(m.nt(), 0);
-          failed_v.resize(m.nt());
+        ++st.tried;
+        if (o.insert && ed.insert_planned(slot[k - w0], t) == TopoResult::Applied) ++ins;
+        else if (o.remove && ed.alive(t) && ed.remove_vertex(t) == TopoResult::Applied) ++rem;
+        else if (ed.alive(t)) {
+          memo.refused[key(t)] = signature(t);
+          if (failed.size() < static_cast<size_t>(m.nt())) {
+            failed.resize(m.nt(), 0);
+            failed_v.resize(m.nt());
+          }
+          failed[t] = ed.next_stamp();
+          std::copy(m.tet(t), m.tet(t) + 4, failed_v[t].begin());
         }
-        failed[t] = ed.next_stamp();
-        std::copy(m.tet(t), m.tet(t) + 4, failed_v[t].begin());
       }
+      const int64_t redone = ed.inserts_redone() - redone0, used = ed.inserts_used() - used0;
+      if (8 * redone > redone + used) win = std::max(kWinMin, win / 2);
+      else if (32 * redone < redone + used) win = std::min(kWinMax, 2 * win);
+      w0 = w1;
     }
     st.inserted += ins;
     st.removed += rem;
@@ -172,13 +210,19 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
       log(LogLevel::Info, "insert pass " + std::to_string(p + 1) + ": " + std::to_string(work.size()) +
                               " tets visited (" + std::to_string(st.skipped - skipped0) +
                               " unchanged since refused in an earlier call), " + std::to_string(ins) + " vertices inserted, " +
-                              std::to_string(rem) + " removed");
+                              std::to_string(rem) + " removed" +
+                              (ed.inserts_used() + ed.inserts_redone() > used_p + redone_p
+                                   ? " (" + std::to_string(ed.inserts_used() - used_p) + " searches made ahead used, " +
+                                         std::to_string(ed.inserts_redone() - redone_p) + " made again)"
+                                   : std::string()));
     if (ins + rem == 0) break;
   }
   st.alpha_worst_after = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t)
     if (ed.alive(t)) st.alpha_worst_after = std::min(st.alpha_worst_after, ed.cached_alpha(t));
   st.removed_vertices = ed.removed();
+  st.planned_used = ed.inserts_used();
+  st.planned_redone = ed.inserts_redone();
   ed.finish();
   st.vertices_after = m.nv() - st.removed;
   st.tets_after = m.nt();

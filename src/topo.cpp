@@ -169,6 +169,32 @@ struct TopoEditor::Candidate {
   uint8_t outer_mask[kMaxOuter];  // 1 when constrained
 };
 
+// What insert_vertex's position search found for one tet (search_insert):
+// the best cavity, its outer faces, the new vertex's place and the worst
+// alpha of its fan there; with the epoch and the tets read when it was a
+// plan of plan_inserts.
+struct TopoEditor::InsertSearch {
+  int nold = 0, nf = 0;
+  int32_t old[kMaxOld];
+  int32_t face[kMaxOuter][3];
+  double x[3] = {0, 0, 0};
+  double f = -kInf;
+  bool have_x = false;
+  // plan_inserts: the tet planned, its epoch, and every tet the search read.
+  int32_t t = -1;
+  uint32_t epoch = 0;
+  std::vector<int32_t> reads;
+};
+
+// plan_inserts' searches, one per tet of the last call.
+struct TopoEditor::InsertPlans {
+  std::vector<InsertSearch> s;
+  int n = 0;
+#ifdef TETOPT_HAVE_TBB
+  std::optional<tbb::task_arena> arena;
+#endif
+};
+
 namespace {
 // The scalar fields of a candidate, between Candidate and PackedCandidate
 // (below) in either direction.
@@ -381,6 +407,8 @@ TopoEditor::~TopoEditor() {
   finish();
   delete cand_;
   delete best_;
+  delete isearch_;
+  delete iplans_;
 }
 
 double TopoEditor::quality(const double* a, const double* b, const double* c, const double* d) const {
@@ -1035,12 +1063,16 @@ void TopoEditor::pop_vertex() {
 
 TopoResult TopoEditor::insert_vertex(int32_t t) {
   if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
-  Candidate& c = *cand_;
-  c.kind = Candidate::Insert;
-  c.size = 1;
-  c.ref = m_.tet_ref[t];
-  c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
-  auto joinable = [&](int32_t o, int f) { return joinable_nb(o, f, c.ref, c.entity); };
+  if (!isearch_) isearch_ = new InsertSearch;
+  search_insert(t, *isearch_, nullptr);
+  return insert_found(t, *isearch_);
+}
+
+void TopoEditor::search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>* reads) const {
+  const int32_t ref = m_.tet_ref[t];
+  const int32_t entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
+  auto joinable = [&](int32_t o, int f) { return joinable_nb(o, f, ref, entity); };
+  note(reads, t);
   int32_t nbs[4];
   int nn = 0;
   for (int f = 0; f < 4; ++f) {
@@ -1105,8 +1137,10 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
     for (int i = 0; i < nold; ++i) {
       const int32_t o = old[i];
       const int32_t* tv = m_.tet(o);
+      note(reads, o);
       for (int f = 0; f < 4; ++f) {
         const int32_t nb = m_.adj[4 * static_cast<size_t>(o) + f];
+        if (nb >= 0) note(reads, nb / 4);
         bool inside = false;
         for (int j = 0; j < nold && nb >= 0 && !inside; ++j) inside = old[j] == nb / 4;
         if (inside && ((m_.face_mask[o] >> f) & 1u)) return false;
@@ -1199,20 +1233,83 @@ TopoResult TopoEditor::insert_vertex(int32_t t) {
   // ch_0p1_A, bib_0p25_bnd, bib_0p25 and hinge_raw, 9,033 started there and
   // 2 of them ended accepted; 64 that started between kFineWorth and the
   // need did (twenty-second session, an instrumented build).
-  set_old_tets(c, best_old, best_nold);
-  if (const double need = c.old_min + o_.margin; have_x && !(need > 0 && best_f < kFineWorth * need)) {
+  double old_min = kInf;  // what set_old_tets gives insert_found
+  for (int i = 0; i < best_nold; ++i) old_min = std::min(old_min, cached_alpha(best_old[i]));
+  if (const double need = old_min + o_.margin; have_x && !(need > 0 && best_f < kFineWorth * need)) {
     nold = best_nold;
     std::copy(best_old, best_old + nold, old);
     lead = 0;
     evaluate(2 * kCoarseStep, kFineStep);
   }
-  nf = best_nf;
-  std::copy(&best_face[0][0], &best_face[0][0] + 3 * nf, &face[0][0]);
-  double bx[3] = {best_x[0], best_x[1], best_x[2]};
-  const double fx = best_f;
+  s.nold = best_nold;
+  std::copy(best_old, best_old + best_nold, s.old);
+  s.nf = best_nf;
+  std::copy(&best_face[0][0], &best_face[0][0] + 3 * best_nf, &s.face[0][0]);
+  std::copy(best_x, best_x + 3, s.x);
+  s.f = best_f;
+  s.have_x = have_x;
+}
+
+TopoResult TopoEditor::insert_found(int32_t t, InsertSearch& s) {
+  Candidate& c = *cand_;
+  c.kind = Candidate::Insert;
+  c.size = 1;
+  c.ref = m_.tet_ref[t];
+  c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
+  set_old_tets(c, s.old, s.nold);
+  double bx[3] = {s.x[0], s.x[1], s.x[2]};
+  const double fx = s.f;
   if (!(fx > c.old_min + o_.margin)) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
-  if (o_.guard && o_.guard->on()) guarded_position(face, nf, c.old_min + o_.margin, bx);
-  return commit_cone(c, bx, face, nf, nullptr);
+  if (o_.guard && o_.guard->on()) guarded_position(s.face, s.nf, c.old_min + o_.margin, bx);
+  return commit_cone(c, bx, s.face, s.nf, nullptr);
+}
+
+int TopoEditor::plan_inserts(const int32_t* tets, int n) {
+  if (!iplans_) iplans_ = new InsertPlans;
+  InsertPlans& P = *iplans_;
+  P.n = 0;
+#ifdef TETOPT_HAVE_TBB
+  // The searches read the mesh, the links and the cached alpha, never write
+  // them (a deferred dihedral measure would: lb_ is empty with alpha).
+  const int threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
+  if (threads < 2 || n < 2 || !lb_.empty() || o_.measure != TopoMeasure::Alpha) return 0;
+  if (P.s.size() < static_cast<size_t>(n)) P.s.resize(static_cast<size_t>(n));
+  if (!P.arena) P.arena.emplace(threads);
+  // A commit after this stamps every tet slot it writes with >= epoch.
+  const uint32_t epoch = next_stamp();
+  P.arena->execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, n, 1), [&](const tbb::blocked_range<int>& r) {
+      for (int i = r.begin(); i < r.end(); ++i) {
+        InsertSearch& x = P.s[static_cast<size_t>(i)];
+        x.reads.clear();
+        x.epoch = epoch;
+        x.t = alive(tets[i]) ? tets[i] : -1;
+        if (x.t >= 0) search_insert(x.t, x, &x.reads);
+      }
+    });
+  });
+  P.n = n;
+  return n;
+#else
+  (void)tets;
+  (void)n;
+  return 0;
+#endif
+}
+
+TopoResult TopoEditor::insert_planned(int i, int32_t t) {
+  if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
+  if (iplans_ && i >= 0 && i < iplans_->n) {
+    InsertSearch& x = iplans_->s[static_cast<size_t>(i)];
+    bool same = x.t == t;
+    for (size_t k = 0; same && k < x.reads.size(); ++k) same = tstamp_[x.reads[k]] < x.epoch;
+    if (same) {
+      ++inserts_used_;
+      return insert_found(t, x);
+    }
+    ++inserts_redone_;
+  }
+  return insert_vertex(t);
 }
 
 bool TopoEditor::guarded_position(const int32_t (*face)[3], int nf, double need, double* x) const {

@@ -77,12 +77,18 @@ struct InsertOptions {
   /// start a new memo with each trial), except where a cavity grown past
   /// the face neighbours changed only there (see insert_pass).
   InsertMemo* memo = nullptr;
+  /// Threads for the position searches made ahead (TopoEditor::plan_inserts;
+  /// 0: every hardware thread); the outcome is the same for every count.
+  int threads = 1;
 };
 
 struct InsertStats {
   int64_t inserted = 0, tried = 0;
   int64_t skipped = 0;                    ///< not tried: refused in an earlier call, signature unchanged (InsertMemo)
   int64_t removed = 0;                    ///< vertices removed (InsertOptions::remove)
+  /// Position searches made ahead in parallel (InsertOptions::threads > 1):
+  /// used, and made again because a commit had changed what they read.
+  int64_t planned_used = 0, planned_redone = 0;
   std::vector<int32_t> removed_vertices;  ///< their ids (unreferenced now; compact_vertices drops them)
   double alpha_worst_before = 0, alpha_worst_after = 0;
   int64_t vertices_before = 0, vertices_after = 0;

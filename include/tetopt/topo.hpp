@@ -276,6 +276,19 @@ class TopoEditor {
   /// than the margin.  Constrained faces stay (they are outer faces).
   /// Alpha measure only (NotApplicable otherwise).
   TopoResult insert_vertex(int32_t t);
+  /// insert_vertex on tets[0..n), one by one, later (insert_planned): with
+  /// TopoOptions::threads > 1 their position searches, which only read,
+  /// run now in parallel on the mesh as it is.  insert_planned(i, t) uses
+  /// search i when it was for tet t and no commit since has written a tet
+  /// it read (the search would find the same again), and searches again
+  /// otherwise: the outcome is insert_vertex's, bit for bit, for every
+  /// thread count.  Returns the number planned (0 with one thread).
+  int plan_inserts(const int32_t* tets, int n);
+  TopoResult insert_planned(int i, int32_t t);
+  /// Of the searches plan_inserts made: used by insert_planned, and made
+  /// again because a commit had changed what they read.
+  int64_t inserts_used() const { return inserts_used_; }
+  int64_t inserts_redone() const { return inserts_redone_; }
   /// Vertex removal by edge contraction: for each free vertex v of t and
   /// each vertex w of v's star, the star of v (at most 32 tets, one region
   /// and entity, all positive) is replaced by its tets without w, with v
@@ -419,6 +432,15 @@ class TopoEditor {
   // back when the plan fails.  `made`, when given, receives the new tets.
   TopoResult commit_cone(Candidate& c, const double* x, const int32_t (*face)[3], int nf,
                          std::vector<int32_t>* made);
+  // insert_vertex = search_insert (the cavity and place, read only; `reads`
+  // as for plan_best) + insert_found (plan and commit the cone).
+  struct InsertSearch;  // defined in topo.cpp
+  struct InsertPlans;
+  void search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>* reads) const;
+  TopoResult insert_found(int32_t t, InsertSearch& s);
+  InsertSearch* isearch_ = nullptr;  // insert_vertex's scratch
+  InsertPlans* iplans_ = nullptr;    // plan_inserts' searches
+  int64_t inserts_used_ = 0, inserts_redone_ = 0;
   // insert_vertex: when the guard refuses the cone from x over face[0..nf),
   // moves x to a nearby position where every cone tet has q > need and the
   // guard admits it; false (x unchanged) when none was found.
