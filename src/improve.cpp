@@ -560,6 +560,7 @@ class Driver {
       fo.objective = o_.objective;
       fo.guard = guard_;
       fo.stop = stop_;
+      fo.threads = threads_;
       const RefineStats fs = refine_pass(m_, h, fo, sub_log_);
       alpha_.clear();
       r_.insertions += fs.inserted;

@@ -468,7 +468,9 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
   RefineStats st;
   st.status = prepare_sized(m, h, o.size);
   if (!st.status) return st;
-  TopoEditor ed(m, editor_options(o.objective, o.guard, o.stop));
+  TopoOptions to = editor_options(o.objective, o.guard, o.stop);
+  to.threads = o.threads;
+  TopoEditor ed(m, to);
   const Acceptance acc = acceptance(ed, o.cap, o.ratio);
   struct Item {
     double ratio;
@@ -500,29 +502,91 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
   std::vector<int32_t> made;
   int64_t why[8] = {};
   auto stopped = [&] { return o.stop && o.stop->load(std::memory_order_relaxed); };
-  while (!heap.empty() && st.inserted < max_inserts && !stopped()) {
-    const Item it = heap.top();
-    heap.pop();
-    if (!ed.alive(it.t)) continue;
+  // The serial order is the heap's: the tet with the largest ratio first,
+  // the new tets of each insertion pushed as they come.  It is kept
+  // exactly while the cavity searches of a window of the top entries run
+  // ahead, in parallel (TopoEditor::plan_points): the entries are taken in
+  // their order, each using its search where no commit since wrote a tet
+  // it read, and the window ends early, its rest pushed back (their
+  // searches kept for when they come again), when a new tet comes before
+  // its next entry.  The window halves while more than 1 search in 8 is
+  // made again and doubles while fewer than 1 in 32 are.
+  auto current = [&](const Item& it) {
+    if (!ed.alive(it.t)) return false;
     const int32_t* tv = m.tet(it.t);
-    if (tv[0] != it.v[0] || tv[1] != it.v[1] || tv[2] != it.v[2] || tv[3] != it.v[3]) continue;
-    double cc[3];
-    ratio_of(it.t, cc);
-    const double hn = 0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
-    ++st.tried;
-    const TopoResult rr = ed.insert_point(it.t, cc, acc, o.min_dist * hn, &made);
-    ++why[static_cast<int>(rr)];
-    if (rr != TopoResult::Applied) continue;
-    h.push_back(hn);
-    ++st.inserted;
-    for (int32_t n : made) consider(n);
+    return tv[0] == it.v[0] && tv[1] == it.v[1] && tv[2] == it.v[2] && tv[3] == it.v[3];
+  };
+  auto size_at = [&](int32_t t) {
+    const int32_t* tv = m.tet(t);
+    return 0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
+  };
+  constexpr size_t kWinMin = 4, kWinMax = 128;
+  size_t win = o.threads != 1 ? 16 : 1;
+  std::vector<Item> items;
+  std::vector<int32_t> bt;
+  std::vector<std::array<double, 3>> bx;
+  std::vector<double> bd;
+  while (!heap.empty() && st.inserted < max_inserts && !stopped()) {
+    items.clear();
+    while (!heap.empty() && items.size() < win) {
+      items.push_back(heap.top());
+      heap.pop();
+    }
+    bt.clear();
+    bx.clear();
+    bd.clear();
+    if (items.size() > 1)
+      for (const Item& it : items)
+        if (current(it) && !ed.point_planned(it.t)) {
+          std::array<double, 3> cc;
+          ratio_of(it.t, cc.data());
+          bt.push_back(it.t);
+          bx.push_back(cc);
+          bd.push_back(o.min_dist * size_at(it.t));
+        }
+    ed.plan_points(bt.data(), reinterpret_cast<const double(*)[3]>(bx.data()), bd.data(),
+                   static_cast<int>(bt.size()), acc);
+    const int64_t redone0 = ed.points_redone(), used0 = ed.points_used();
+    size_t taken = items.size();
+    for (size_t j = 0; j < items.size(); ++j) {
+      if (j > 0 && ((!heap.empty() && items[j] < heap.top()) || st.inserted >= max_inserts || stopped())) {
+        for (size_t k = j; k < items.size(); ++k) heap.push(items[k]);
+        st.pushed_back += static_cast<int64_t>(items.size() - j);
+        taken = j;
+        break;
+      }
+      const Item& it = items[j];
+      if (!current(it)) continue;
+      double cc[3];
+      ratio_of(it.t, cc);
+      const double hn = size_at(it.t);
+      ++st.tried;
+      const TopoResult rr = ed.insert_point_planned(it.t, cc, acc, o.min_dist * hn, &made);
+      ++why[static_cast<int>(rr)];
+      if (rr != TopoResult::Applied) continue;
+      h.push_back(hn);
+      ++st.inserted;
+      for (int32_t n : made) consider(n);
+    }
+    ++st.windows;
+    if (o.threads != 1) {
+      const int64_t redone = ed.points_redone() - redone0, used = ed.points_used() - used0;
+      if (8 * redone > redone + used) win = std::max(kWinMin, win / 2);
+      else if (32 * redone < redone + used) win = std::min(kWinMax, 2 * win);
+      // No larger than twice what this window took before a new tet came first.
+      win = std::clamp(std::min(win, 2 * taken), kWinMin, kWinMax);
+    }
   }
+  st.planned_used = ed.points_used();
+  st.planned_redone = ed.points_redone();
   ed.finish();
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (log) {
     std::string w;
     for (int k = 0; k < 7; ++k) w += std::string(" ") + to_string(static_cast<TopoResult>(k)) + " " + std::to_string(why[k]);
-    log(LogLevel::Debug, "refine: the tries ended" + w);
+    log(LogLevel::Debug, "refine: the tries ended" + w + "; cavity searches made ahead: " +
+                             std::to_string(st.planned_used) + " used, " + std::to_string(st.planned_redone) +
+                             " made again; windows " + std::to_string(st.windows) + " pushed back " + std::to_string(st.pushed_back));
   }
   if (log)
     log(LogLevel::Info, "refine: " + std::to_string(st.large) + " tets too large for the size field, " +

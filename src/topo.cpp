@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -186,10 +187,41 @@ struct TopoEditor::InsertSearch {
   std::vector<int32_t> reads;
 };
 
+// What insert_point's cavity search found (search_point): the cavity and
+// its outer faces; with the point, the epoch and the tets read when it was
+// a plan of plan_points.
+struct TopoEditor::PointSearch {
+  int nc = 0, nf = 0;
+  int32_t cav[kMaxPointCavity];
+  int32_t face[kMaxNew][3];
+  TopoResult r = TopoResult::NotApplicable;
+  int32_t t = -1;
+  double x[3] = {0, 0, 0};
+  double min_dist = 0;
+  uint32_t epoch = 0;
+  std::vector<int32_t> reads;
+};
+
+// plan_points' searches: a pool of entries, the entry of each tet slot
+// planned and not yet used (of_tet), and each thread's marks (insert_point's
+// mark_ and mark_epoch_).
+struct TopoEditor::PointPlans {
+  std::vector<PointSearch> pool;
+  std::vector<int> free;
+  std::vector<int> of_tet;  // per tet slot: its entry, or -1
+  std::vector<int> todo;    // entries to search in this call
+  int threads = 0;          // resolved on the first call
+#ifdef TETOPT_HAVE_TBB
+  std::optional<tbb::task_arena> arena;
+  tbb::enumerable_thread_specific<std::pair<std::vector<uint32_t>, uint32_t>> marks;
+#endif
+};
+
 // plan_inserts' searches, one per tet of the last call.
 struct TopoEditor::InsertPlans {
   std::vector<InsertSearch> s;
   int n = 0;
+  int threads = 0;  // resolved on the first call
 #ifdef TETOPT_HAVE_TBB
   std::optional<tbb::task_arena> arena;
 #endif
@@ -409,6 +441,8 @@ TopoEditor::~TopoEditor() {
   delete best_;
   delete isearch_;
   delete iplans_;
+  delete psearch_;
+  delete pplans_;
 }
 
 double TopoEditor::quality(const double* a, const double* b, const double* c, const double* d) const {
@@ -1265,16 +1299,20 @@ TopoResult TopoEditor::insert_found(int32_t t, InsertSearch& s) {
 }
 
 int TopoEditor::plan_inserts(const int32_t* tets, int n) {
-  if (!iplans_) iplans_ = new InsertPlans;
+  if (!iplans_) {
+    iplans_ = new InsertPlans;
+#ifdef TETOPT_HAVE_TBB
+    iplans_->threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
+    if (iplans_->threads > 1) iplans_->arena.emplace(iplans_->threads);
+#endif
+  }
   InsertPlans& P = *iplans_;
   P.n = 0;
 #ifdef TETOPT_HAVE_TBB
   // The searches read the mesh, the links and the cached alpha, never write
   // them (a deferred dihedral measure would: lb_ is empty with alpha).
-  const int threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
-  if (threads < 2 || n < 2 || !lb_.empty() || o_.measure != TopoMeasure::Alpha) return 0;
+  if (P.threads < 2 || n < 2 || !lb_.empty() || o_.measure != TopoMeasure::Alpha) return 0;
   if (P.s.size() < static_cast<size_t>(n)) P.s.resize(static_cast<size_t>(n));
-  if (!P.arena) P.arena.emplace(threads);
   // A commit after this stamps every tet slot it writes with >= epoch.
   const uint32_t epoch = next_stamp();
   P.arena->execute([&] {
@@ -1310,6 +1348,99 @@ TopoResult TopoEditor::insert_planned(int i, int32_t t) {
     ++inserts_redone_;
   }
   return insert_vertex(t);
+}
+
+int TopoEditor::plan_points(const int32_t* tets, const double (*x)[3], const double* min_dist, int n,
+                            const Acceptance& acc) {
+#ifdef TETOPT_HAVE_TBB
+  if (!lb_.empty() || o_.measure != TopoMeasure::Alpha) return 0;
+  if (!pplans_) {
+    pplans_ = new PointPlans;
+    pplans_->threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
+    if (pplans_->threads > 1) pplans_->arena.emplace(pplans_->threads);
+  }
+  PointPlans& P = *pplans_;
+  if (P.threads < 2) return 0;
+  if (P.of_tet.size() < static_cast<size_t>(m_.nt())) P.of_tet.resize(static_cast<size_t>(m_.nt()), -1);
+  // An entry not yet used for the same tet, point and distance stays (it is
+  // checked when used); the others are searched now.
+  P.todo.clear();
+  for (int i = 0; i < n; ++i) {
+    const int32_t t = tets[i];
+    if (!alive(t)) continue;
+    int e = P.of_tet[t];
+    if (e >= 0) {
+      const PointSearch& p = P.pool[static_cast<size_t>(e)];
+      if (p.t == t && std::memcmp(p.x, x[i], sizeof p.x) == 0 && p.min_dist == min_dist[i]) continue;
+    } else if (!P.free.empty()) {
+      e = P.free.back();
+      P.free.pop_back();
+    } else {
+      e = static_cast<int>(P.pool.size());
+      P.pool.emplace_back();
+    }
+    P.of_tet[t] = e;
+    PointSearch& p = P.pool[static_cast<size_t>(e)];
+    p.t = t;
+    std::copy(x[i], x[i] + 3, p.x);
+    p.min_dist = min_dist[i];
+    P.todo.push_back(e);
+  }
+  if (P.todo.size() < 2) {  // nothing to share: searched when used, as before
+    for (const int e : P.todo) {
+      P.of_tet[P.pool[static_cast<size_t>(e)].t] = -1;
+      P.free.push_back(e);
+    }
+    return 0;
+  }
+  const uint32_t epoch = next_stamp();  // a later commit stamps what it writes with >= epoch
+  P.arena->execute([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, P.todo.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+      auto& mk = P.marks.local();
+      for (size_t k = r.begin(); k < r.end(); ++k) {
+        PointSearch& p = P.pool[static_cast<size_t>(P.todo[k])];
+        p.reads.clear();
+        p.epoch = epoch;
+        p.r = search_point(p.t, p.x, acc, p.min_dist, p, mk.first, mk.second, &p.reads);
+      }
+    });
+  });
+  return static_cast<int>(P.todo.size());
+#else
+  (void)tets;
+  (void)x;
+  (void)min_dist;
+  (void)n;
+  (void)acc;
+  return 0;
+#endif
+}
+
+bool TopoEditor::point_planned(int32_t t) const {
+  if (!pplans_ || static_cast<size_t>(t) >= pplans_->of_tet.size() || pplans_->of_tet[t] < 0) return false;
+  const PointSearch& p = pplans_->pool[static_cast<size_t>(pplans_->of_tet[t])];
+  return p.t == t && tstamp_[t] < p.epoch;
+}
+
+TopoResult TopoEditor::insert_point_planned(int32_t t, const double* x, const Acceptance& acc, double min_dist,
+                                            std::vector<int32_t>* made) {
+  if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
+  if (pplans_ && static_cast<size_t>(t) < pplans_->of_tet.size() && pplans_->of_tet[t] >= 0) {
+    PointPlans& P = *pplans_;
+    const int e = P.of_tet[t];
+    P.of_tet[t] = -1;
+    P.free.push_back(e);
+    PointSearch& p = P.pool[static_cast<size_t>(e)];
+    bool same = p.t == t && std::memcmp(p.x, x, sizeof p.x) == 0 && p.min_dist == min_dist;
+    for (size_t k = 0; same && k < p.reads.size(); ++k) same = tstamp_[p.reads[k]] < p.epoch;
+    if (same) {
+      ++points_used_;
+      // The entry stays intact until the next plan_points call.
+      return p.r == TopoResult::Applied ? point_found(t, x, acc, p, made) : p.r;
+    }
+    ++points_redone_;
+  }
+  return insert_point(t, x, acc, min_dist, made);
 }
 
 bool TopoEditor::guarded_position(const int32_t (*face)[3], int nf, double need, double* x) const {
@@ -1573,6 +1704,15 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
 TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance& acc, double min_dist,
                                      std::vector<int32_t>* made) {
   if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
+  if (!psearch_) psearch_ = new PointSearch;
+  const TopoResult r = search_point(t, x, acc, min_dist, *psearch_, mark_, mark_epoch_, nullptr);
+  if (r != TopoResult::Applied) return r;
+  return point_found(t, x, acc, *psearch_, made);
+}
+
+TopoResult TopoEditor::search_point(int32_t t, const double* x, const Acceptance& acc, double min_dist,
+                                    PointSearch& s, std::vector<uint32_t>& mark, uint32_t& mark_epoch,
+                                    std::vector<int32_t>* reads) const {
   const int32_t ref = m_.tet_ref[t];
   const int32_t entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
   auto joinable = [&](int32_t o, int f) { return joinable_nb(o, f, ref, entity); };
@@ -1580,6 +1720,7 @@ TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance
   int32_t cur = t;
   for (int step = 0;; ++step) {
     if (step > 256) return TopoResult::NotApplicable;
+    note(reads, cur);
     const int32_t* tv = m_.tet(cur);
     int bf = -1;
     double bo = 0;
@@ -1596,39 +1737,41 @@ TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance
     cur = n;
   }
   // Bowyer-Watson cavity, breadth first from the containing tet.  A tet
-  // is tested once: mark_[tet] == the call's epoch once seen, + 1 once in
+  // is tested once: mark[tet] == the call's epoch once seen, + 1 once in
   // the cavity.
-  if (mark_.size() < static_cast<size_t>(m_.nt())) mark_.resize(m_.nt(), 0);
-  mark_epoch_ += 2;
-  if (mark_epoch_ < 2) {  // wrapped
-    std::fill(mark_.begin(), mark_.end(), 0);
-    mark_epoch_ = 2;
+  if (mark.size() < static_cast<size_t>(m_.nt())) mark.resize(m_.nt(), 0);
+  mark_epoch += 2;
+  if (mark_epoch < 2) {  // wrapped
+    std::fill(mark.begin(), mark.end(), 0);
+    mark_epoch = 2;
   }
-  const uint32_t seen_mark = mark_epoch_, cav_mark = mark_epoch_ + 1;
-  int32_t cav[kMaxPointCavity];
-  int nc = 0;
+  const uint32_t seen_mark = mark_epoch, cav_mark = mark_epoch + 1;
+  int32_t* cav = s.cav;
+  int& nc = s.nc;
+  nc = 0;
   cav[nc++] = cur;
-  mark_[cur] = cav_mark;
-  auto in_cav = [&](int32_t v) { return mark_[v] == cav_mark; };
+  mark[cur] = cav_mark;
+  auto in_cav = [&](int32_t v) { return mark[v] == cav_mark; };
   for (int i = 0; i < nc; ++i)
     for (int f = 0; f < 4; ++f) {
       const int32_t n = joinable(cav[i], f);
-      if (n < 0 || mark_[n] >= seen_mark) continue;
-      mark_[n] = seen_mark;
+      if (n < 0 || mark[n] >= seen_mark) continue;
+      mark[n] = seen_mark;
       if (nc >= kMaxPointCavity) continue;
+      note(reads, n);
       const int32_t* nv = m_.tet(n);
       double cc[3], r2;
       if (!detail::circumsphere(m_.point(nv[0]), m_.point(nv[1]), m_.point(nv[2]), m_.point(nv[3]), cc, r2)) continue;
       const double d2 = (x[0] - cc[0]) * (x[0] - cc[0]) + (x[1] - cc[1]) * (x[1] - cc[1]) + (x[2] - cc[2]) * (x[2] - cc[2]);
       if (d2 < r2 * (1 - 1e-12)) {
         cav[nc++] = n;
-        mark_[n] = cav_mark;
+        mark[n] = cav_mark;
       }
     }
   // Shrink until x sees every outer face; a tet whose outer face x does not
   // see leaves the cavity (the containing tet never does: then no insertion).
-  int32_t face[kMaxNew][3];
-  int nf = 0;
+  int32_t (*face)[3] = s.face;
+  int& nf = s.nf;
   for (;;) {
     nf = 0;
     int drop = -1;
@@ -1652,7 +1795,7 @@ TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance
     }
     if (drop < 0) break;
     if (drop == 0) return TopoResult::Inverted;
-    mark_[cav[drop]] = seen_mark;
+    mark[cav[drop]] = seen_mark;
     cav[drop] = cav[--nc];
   }
   // No vertex and no listed edge may vanish inside the cavity.
@@ -1679,24 +1822,30 @@ TopoResult TopoEditor::insert_point(int32_t t, const double* x, const Acceptance
           return TopoResult::BoundaryLocked;
       }
   }
-  Candidate& c = *cand_;
-  c.kind = Candidate::Insert;
-  c.size = 1;
-  c.ref = ref;
-  c.entity = entity;
-  set_old_tets(c, cav, nc);
   // The acceptance first (finish_plan checks it again), without the vertex:
   // most refused points fail here, before the plan's other checks.
-  const double floor = std::max(acc.floor_for(c.old_min), 0.0);
+  double old_min = kInf;  // what set_old_tets gives point_found
+  for (int i = 0; i < nc; ++i) old_min = std::min(old_min, cached_alpha(cav[i]));
+  const double floor = std::max(acc.floor_for(old_min), 0.0);
   for (int i = 0; i < nf; ++i)
     if (!(quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), x) >= floor))
       return TopoResult::NotImproved;
+  return TopoResult::Applied;
+}
+
+TopoResult TopoEditor::point_found(int32_t t, const double* x, const Acceptance& acc, PointSearch& s,
+                                   std::vector<int32_t>* made) {
+  Candidate& c = *cand_;
+  c.kind = Candidate::Insert;
+  c.size = 1;
+  c.ref = m_.tet_ref[t];
+  c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
+  set_old_tets(c, s.cav, s.nc);
   accept_ = acc;
   accept_.on = true;
-  const TopoResult r = commit_cone(c, x, face, nf, made);
+  const TopoResult r = commit_cone(c, x, s.face, s.nf, made);
   accept_ = {};
-  if (r != TopoResult::Applied) return r;
-  return TopoResult::Applied;
+  return r;
 }
 
 TopoResult TopoEditor::plan_best(int32_t t, bool strict, Candidate*& cand, Candidate*& best,

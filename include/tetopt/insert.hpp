@@ -198,11 +198,20 @@ struct RefineOptions {
   Objective objective = Objective::Alpha;
   const Guard* guard = nullptr;
   const std::atomic<bool>* stop = nullptr;
+  /// Threads for the cavity searches made ahead (TopoEditor::plan_points;
+  /// 0: every hardware thread); the outcome is the same for every count.
+  int threads = 1;
 };
 
 struct RefineStats {
   int64_t inserted = 0;  ///< circumcentres inserted
   int64_t tried = 0;     ///< tets whose circumcentre was tried
+  /// Cavity searches made ahead in parallel (RefineOptions::threads != 1):
+  /// used, and made again because a commit had changed what they read.
+  int64_t planned_used = 0, planned_redone = 0;
+  /// Windows of the order taken, and their entries pushed back because a
+  /// new tet came first (see refine_pass).
+  int64_t windows = 0, pushed_back = 0;
   int64_t large = 0;     ///< tets above the ratio at the start
   double seconds = 0;
   Status status;

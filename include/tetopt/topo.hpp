@@ -327,6 +327,22 @@ class TopoEditor {
   /// measure only.
   TopoResult insert_point(int32_t t, const double* x, const Acceptance& acc, double min_dist = 0,
                           std::vector<int32_t>* made = nullptr);
+  /// insert_point on (tets[i], x[i], acc, min_dist[i]), i < n, one by one
+  /// later, in any order (insert_point_planned), as plan_inserts does for
+  /// insert_vertex: with TopoOptions::threads > 1 the cavity searches run
+  /// now, in parallel, except for a tet planned before with the same point
+  /// and distance and not used since.  insert_point_planned uses a tet's
+  /// search when it was for the same point and distance and no commit since
+  /// has written a tet it read, and searches again otherwise.  The same acc
+  /// must be given to both.  Returns the number of searches made.
+  int plan_points(const int32_t* tets, const double (*x)[3], const double* min_dist, int n, const Acceptance& acc);
+  TopoResult insert_point_planned(int32_t t, const double* x, const Acceptance& acc, double min_dist,
+                                  std::vector<int32_t>* made = nullptr);
+  /// True when tet t has a search of plan_points not yet used, made while
+  /// slot t held the tet it holds now.
+  bool point_planned(int32_t t) const;
+  int64_t points_used() const { return points_used_; }      ///< searches of plan_points used
+  int64_t points_redone() const { return points_redone_; }  ///< and made again
   /// Edge collapse: remove_vertex restricted to the contraction of one
   /// endpoint of local edge le of t (a free one; a first, then b) onto the
   /// other, taken when acc admits the new tets' worst quality; only a
@@ -438,6 +454,17 @@ class TopoEditor {
   struct InsertPlans;
   void search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>* reads) const;
   TopoResult insert_found(int32_t t, InsertSearch& s);
+  // insert_point = search_point (the cavity, read only; the marks are the
+  // caller's) + point_found (plan and commit the cone).
+  struct PointSearch;
+  struct PointPlans;
+  TopoResult search_point(int32_t t, const double* x, const Acceptance& acc, double min_dist, PointSearch& s,
+                          std::vector<uint32_t>& mark, uint32_t& mark_epoch, std::vector<int32_t>* reads) const;
+  TopoResult point_found(int32_t t, const double* x, const Acceptance& acc, PointSearch& s,
+                         std::vector<int32_t>* made);
+  PointSearch* psearch_ = nullptr;
+  PointPlans* pplans_ = nullptr;
+  int64_t points_used_ = 0, points_redone_ = 0;
   InsertSearch* isearch_ = nullptr;  // insert_vertex's scratch
   InsertPlans* iplans_ = nullptr;    // plan_inserts' searches
   int64_t inserts_used_ = 0, inserts_redone_ = 0;

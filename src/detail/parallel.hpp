@@ -27,8 +27,13 @@ inline constexpr int64_t kBlock = 8192;
 /// A thread-count option: > 0 as given, otherwise the hardware's count.
 inline int resolve_threads(int t) {
   if (t > 0) return t;
-  const unsigned h = std::thread::hardware_concurrency();
-  return h > 0 ? static_cast<int>(h) : 1;
+  // Asked once: glibc reads /sys for it on every call, and the insertion
+  // passes resolve their threads for every window of work (2% of a run).
+  static const int h = [] {
+    const unsigned n = std::thread::hardware_concurrency();
+    return n > 0 ? static_cast<int>(n) : 1;
+  }();
+  return h;
 }
 
 inline int64_t block_count(int64_t n) { return n > 0 ? (n + kBlock - 1) / kBlock : 0; }

@@ -926,6 +926,50 @@ TEST(Remesh, RefinePassFillsAMeshWithNoInteriorVertex) {
   expect_promise(before, fine, w0);
 }
 
+// With threads, refine_pass searches the cavities of a window of the heap's
+// top entries ahead, in parallel (TopoEditor::plan_points), keeps the heap's
+// order by pushing a window's rest back when a new tet comes first, and uses
+// a search only where no commit since wrote a tet it read: the result must
+// be the serial one bit for bit, with searches used, searches made again
+// and entries pushed back all seen.
+TEST(Remesh, RefineSearchesMadeAheadGiveTheSerialResultBitForBit) {
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "one hardware thread: no search runs ahead";
+  int64_t used = 0, redone = 0, pushed = 0;
+  for (double size : {0.0, 0.5, 0.35}) {
+    SCOPED_TRACE(size);
+    const TetMesh before = hollow_box();
+    const double w0 = worst(before);
+    TetMesh serial = before, ahead = before;
+    std::vector<double> h1, h2;
+    RefineOptions fo;
+    fo.size = size;
+    fo.threads = 1;
+    const RefineStats s1 = refine_pass(serial, h1, fo);
+    fo.threads = 2;
+    const RefineStats s2 = refine_pass(ahead, h2, fo);
+    ASSERT_TRUE(s1.status.ok() && s2.status.ok());
+    EXPECT_EQ(s1.planned_used + s1.planned_redone + s1.pushed_back, 0);
+    EXPECT_GT(s1.inserted, 0);
+    EXPECT_EQ(s1.inserted, s2.inserted);
+    EXPECT_EQ(s1.tried, s2.tried);
+    EXPECT_EQ(serial.tets, ahead.tets);
+    EXPECT_EQ(serial.tet_ref, ahead.tet_ref);
+    ASSERT_EQ(serial.xyz.size(), ahead.xyz.size());
+    EXPECT_EQ(0, std::memcmp(serial.xyz.data(), ahead.xyz.data(), serial.xyz.size() * sizeof(double)));
+    EXPECT_EQ(h1, h2);
+    expect_promise(before, ahead, w0);
+    used += s2.planned_used;
+    redone += s2.planned_redone;
+    pushed += s2.pushed_back;
+  }
+  RecordProperty("used", static_cast<int>(used));
+  RecordProperty("redone", static_cast<int>(redone));
+  RecordProperty("pushed_back", static_cast<int>(pushed));
+  EXPECT_GT(used, 0);
+  EXPECT_GT(redone, 0) << "no search was made again: the stale-read path went untested";
+  EXPECT_GT(pushed, 0) << "no window was cut short: the order path went untested";
+}
+
 // insert_vertex's position search runs on detail::cone_alpha, which must be
 // alpha(A, C, B, p) bit for bit (the same operations in the same order), or
 // insertion would accept tets by numbers the rest of the engine does not see.
