@@ -1386,7 +1386,7 @@ int TopoEditor::plan_points(const int32_t* tets, const double (*x)[3], const dou
     p.min_dist = min_dist[i];
     P.todo.push_back(e);
   }
-  if (P.todo.size() < 2) {  // nothing to share: searched when used, as before
+  if (P.todo.size() < 4) {  // too few to pay for waking a thread: searched when used
     for (const int e : P.todo) {
       P.of_tet[P.pool[static_cast<size_t>(e)].t] = -1;
       P.free.push_back(e);
