@@ -465,7 +465,9 @@ double TopoEditor::quality(const double* a, const double* b, const double* c, co
 
 double TopoEditor::deferred(int32_t t) const {
   const int32_t* v = m_.tet(t);
-  return alpha_[t] = quality(m_.point(v[0]), m_.point(v[1]), m_.point(v[2]), m_.point(v[3]));
+  const double q = quality(m_.point(v[0]), m_.point(v[1]), m_.point(v[2]), m_.point(v[3]));
+  if (!nocache_) alpha_[t] = q;  // improve_tets' parallel plans compute it without storing it
+  return q;
 }
 
 double TopoEditor::min_cached() const {
@@ -2058,7 +2060,9 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
   int64_t changed = 0;
 #ifdef TETOPT_HAVE_TBB
   // Windows of up to W tets (sized below).  Planning reads only (a deferred
-  // dihedral measure would write its cache, hence lb_.empty()).  A plan
+  // dihedral measure is computed without being stored meanwhile: nocache_;
+  // until the twenty-third session the dihedral pass planned serially
+  // because of that cache, 18% of hinge_raw's runs).  A plan
   // keeps the stamp taken just before it was made (its epoch) and every tet
   // it read; a commit stamps every tet slot it writes (removed, rewritten,
   // or an outer neighbour whose link it updates) with the current stamp, so
@@ -2079,7 +2083,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
   // through the serial loop, which has no batches to wait for; then windows
   // are tried again.  The outcome does not depend on any of this.
   constexpr size_t W = 512, kMinW = 16, kSerial = 256;
-  if (threads > 1 && lb_.empty() && work.size() >= 64) {
+  if (threads > 1 && work.size() >= 64) {
     struct Plan {
       uint8_t state = 0;  // 0 not planned (not eligible when planned), 1 refused, 2 applied
       uint32_t epoch = 0;  // the stamp taken just before it was planned
@@ -2140,9 +2144,12 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
         n = std::min(win, work.size() - w0);
         size_t redone = 0;
         const uint32_t s0 = next_stamp();
+        nocache_ = true;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8), [&](const tbb::blocked_range<size_t>& r) {
           for (size_t i = r.begin(); i < r.end(); ++i) plan_one(i, s0);
         });
+        nocache_ = false;
+        stats_.planned_ahead += static_cast<int64_t>(n);
         for (size_t i = 0; i < n; ++i) {
           const int32_t t = work[w0 + i];
           if (!eligible(t)) continue;
@@ -2160,9 +2167,11 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
             if (redo.size() == 1) {  // no batch to share: no wake-up to wait for
               plan_one(i, s1);
             } else {
+              nocache_ = true;
               tbb::parallel_for(tbb::blocked_range<size_t>(0, redo.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
                 for (size_t j = r.begin(); j < r.end(); ++j) plan_one(redo[j], s1);
               });
+              nocache_ = false;
             }
             ++redone;
           }
@@ -2297,6 +2306,7 @@ void take_counts(const TopoStats& es, TopoStats& st) {
   st.all_boundary_removed = es.all_boundary_removed;
   st.pairs = es.pairs;
   st.passes = es.passes;
+  st.planned_ahead = es.planned_ahead;
 }
 
 int64_t count_kind4(const TetMesh& m, int threads) {
@@ -2560,6 +2570,7 @@ TopoStats dihedral_pass(TetMesh& m, const TopoOptions& o, const LogFn& log) {
       total.flip23 += st.flip23; total.flip32 += st.flip32; total.flip44 += st.flip44;
       total.edge_removals += st.edge_removals; total.multi_face_removals += st.multi_face_removals;
       total.passes += st.passes;
+      total.planned_ahead += st.planned_ahead;
       total.alpha_worst_after = st.alpha_worst_after;
       total.tets_after = st.tets_after;
     }

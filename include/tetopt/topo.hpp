@@ -187,6 +187,7 @@ struct TopoStats {
   double alpha_worst_before = 0, alpha_worst_after = 0;  ///< over all tets
   int64_t tets_before = 0, tets_after = 0;
   int64_t vertex_moves = 0;         ///< dihedral_pass: free vertices relocated
+  int64_t planned_ahead = 0;        ///< improve_tets: options planned in parallel windows (threads > 1)
   int passes = 0;
   double seconds = 0;
   Status status;  ///< not ok when the topology could not be built
@@ -500,6 +501,10 @@ class TopoEditor {
   uint32_t mark_epoch_ = 0;
 
   double deferred(int32_t t) const;
+  // Set while improve_tets plans in parallel: deferred() then computes a
+  // measure without storing it (the threads would race on the cache; the
+  // number is the same either way, so only the cost differs).
+  bool nocache_ = false;
   void fill_cache();
 
   TetMesh& m_;
