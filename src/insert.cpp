@@ -167,22 +167,27 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     constexpr size_t kWinMin = 8, kWinMax = 256;
     size_t win = 32;
     std::vector<int32_t> batch;
-    std::vector<int> slot;  // per entry of the window: its search, or -1
+    std::vector<int> slot;       // per entry of the window: its search, or -1
+    std::vector<int8_t> judged;  // per entry: its verdict at the window's start, or -1
     for (size_t w0 = 0; w0 < work.size();) {
       const size_t w1 = std::min(work.size(), w0 + win);
       batch.clear();
       slot.assign(w1 - w0, -1);
+      judged.assign(w1 - w0, -1);
       if (o.threads != 1 && o.insert)
         for (size_t k = w0; k < w1; ++k)
-          if (verdict(work[k]) == 2) {
+          if ((judged[k - w0] = static_cast<int8_t>(verdict(work[k]))) == 2) {
             slot[k - w0] = static_cast<int>(batch.size());
             batch.push_back(work[k]);
           }
       if (ed.plan_inserts(batch.data(), static_cast<int>(batch.size())) == 0) std::fill(slot.begin(), slot.end(), -1);
       const int64_t redone0 = ed.inserts_redone(), used0 = ed.inserts_used();
+      const int64_t changes0 = ins + rem;
       for (size_t k = w0; k < w1; ++k) {
         const int32_t t = work[k];
-        if (const int v = verdict(t); v < 2) {
+        // With no commit since the window's start nothing a verdict reads
+        // has changed (this pass visits each tet once).
+        if (const int v = ins + rem == changes0 && judged[k - w0] >= 0 ? judged[k - w0] : verdict(t); v < 2) {
           st.skipped += v;
           continue;
         }
