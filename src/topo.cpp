@@ -1373,7 +1373,8 @@ int TopoEditor::plan_points(const int32_t* tets, const double (*x)[3], const dou
     int e = P.of_tet[t];
     if (e >= 0) {
       const PointSearch& p = P.pool[static_cast<size_t>(e)];
-      if (p.t == t && std::memcmp(p.x, x[i], sizeof p.x) == 0 && p.min_dist == min_dist[i]) continue;
+      if (p.t == t && tstamp_[t] < p.epoch && std::memcmp(p.x, x[i], sizeof p.x) == 0 && p.min_dist == min_dist[i])
+        continue;
     } else if (!P.free.empty()) {
       e = P.free.back();
       P.free.pop_back();
