@@ -1286,13 +1286,18 @@ void TopoEditor::search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>*
   s.have_x = have_x;
 }
 
-TopoResult TopoEditor::insert_found(int32_t t, InsertSearch& s) {
+TopoEditor::Candidate& TopoEditor::cone_candidate(int32_t t, const int32_t* old, int n) {
   Candidate& c = *cand_;
   c.kind = Candidate::Insert;
   c.size = 1;
   c.ref = m_.tet_ref[t];
   c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
-  set_old_tets(c, s.old, s.nold);
+  set_old_tets(c, old, n);
+  return c;
+}
+
+TopoResult TopoEditor::insert_found(int32_t t, InsertSearch& s) {
+  Candidate& c = cone_candidate(t, s.old, s.nold);
   double bx[3] = {s.x[0], s.x[1], s.x[2]};
   const double fx = s.f;
   if (!(fx > c.old_min + o_.margin)) return fx > 0 ? TopoResult::NotImproved : TopoResult::Inverted;
@@ -1649,12 +1654,7 @@ TopoResult TopoEditor::split_edge(int32_t t, int le, const Acceptance& acc, doub
   int32_t a, b, ring[kMaxShell + 2], shell[kMaxShell + 1];
   int n = 0;
   if (TopoResult r = gather_shell(t, le, a, b, ring, shell, n, nullptr); r != TopoResult::Applied) return r;
-  Candidate& c = *cand_;
-  c.kind = Candidate::Insert;
-  c.size = 1;
-  c.ref = m_.tet_ref[t];
-  c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
-  set_old_tets(c, shell, n);
+  Candidate& c = cone_candidate(t, shell, n);
   // The shell (a, b, r_i, r_i+1) becomes (p, b, r_i, r_i+1) and
   // (a, p, r_i, r_i+1): the cone from p over the shell's outer faces, valid
   // for any p that sees them all (exact orient3d below).
@@ -1838,12 +1838,7 @@ TopoResult TopoEditor::search_point(int32_t t, const double* x, const Acceptance
 
 TopoResult TopoEditor::point_found(int32_t t, const double* x, const Acceptance& acc, PointSearch& s,
                                    std::vector<int32_t>* made) {
-  Candidate& c = *cand_;
-  c.kind = Candidate::Insert;
-  c.size = 1;
-  c.ref = m_.tet_ref[t];
-  c.entity = m_.tet_entity.empty() ? 0 : m_.tet_entity[t];
-  set_old_tets(c, s.cav, s.nc);
+  Candidate& c = cone_candidate(t, s.cav, s.nc);
   accept_ = acc;
   accept_.on = true;
   const TopoResult r = commit_cone(c, x, s.face, s.nf, made);

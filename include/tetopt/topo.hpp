@@ -455,6 +455,8 @@ class TopoEditor {
   struct InsertPlans;
   void search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>* reads) const;
   TopoResult insert_found(int32_t t, InsertSearch& s);
+  // The scratch candidate of an insertion at tet t replacing old[0..n).
+  Candidate& cone_candidate(int32_t t, const int32_t* old, int n);
   // insert_point = search_point (the cavity, read only; the marks are the
   // caller's) + point_found (plan and commit the cone).
   struct PointSearch;

@@ -55,6 +55,15 @@ double worst(const TetMesh& m) {
   return w;
 }
 
+// The same tets, refs, constrained faces and coordinates, bit for bit.
+void expect_same_mesh(const TetMesh& a, const TetMesh& b) {
+  EXPECT_EQ(a.tets, b.tets);
+  EXPECT_EQ(a.tet_ref, b.tet_ref);
+  EXPECT_EQ(a.face_mask, b.face_mask);
+  ASSERT_EQ(a.xyz.size(), b.xyz.size());
+  EXPECT_EQ(0, std::memcmp(a.xyz.data(), b.xyz.data(), a.xyz.size() * sizeof(double)));
+}
+
 }  // namespace
 
 TEST(Insert, PassKeepsInvariantsAndAppendsFreeVertices) {
@@ -281,11 +290,7 @@ TEST(Insert, SearchesMadeAheadGiveTheSerialResultBitForBit) {
       EXPECT_EQ(s1.inserted, s2.inserted);
       EXPECT_EQ(s1.removed, s2.removed);
       EXPECT_EQ(s1.tried, s2.tried);
-      EXPECT_EQ(serial.tets, ahead.tets);
-      EXPECT_EQ(serial.tet_ref, ahead.tet_ref);
-      EXPECT_EQ(serial.face_mask, ahead.face_mask);
-      ASSERT_EQ(serial.xyz.size(), ahead.xyz.size());
-      EXPECT_EQ(0, std::memcmp(serial.xyz.data(), ahead.xyz.data(), serial.xyz.size() * sizeof(double)));
+      expect_same_mesh(serial, ahead);
       EXPECT_EQ(0, std::memcmp(xyz.data(), ahead.xyz.data(), xyz.size() * sizeof(double)));
       EXPECT_EQ(faces, constrained_faces(ahead));
       ASSERT_TRUE(validate(ahead, ValidateLevel::Full).ok());
@@ -952,10 +957,7 @@ TEST(Remesh, RefineSearchesMadeAheadGiveTheSerialResultBitForBit) {
     EXPECT_GT(s1.inserted, 0);
     EXPECT_EQ(s1.inserted, s2.inserted);
     EXPECT_EQ(s1.tried, s2.tried);
-    EXPECT_EQ(serial.tets, ahead.tets);
-    EXPECT_EQ(serial.tet_ref, ahead.tet_ref);
-    ASSERT_EQ(serial.xyz.size(), ahead.xyz.size());
-    EXPECT_EQ(0, std::memcmp(serial.xyz.data(), ahead.xyz.data(), serial.xyz.size() * sizeof(double)));
+    expect_same_mesh(serial, ahead);
     EXPECT_EQ(h1, h2);
     expect_promise(before, ahead, w0);
     used += s2.planned_used;
