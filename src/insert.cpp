@@ -529,7 +529,7 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
   size_t win = o.threads != 1 ? 16 : 1;
   std::vector<Item> items;
   std::vector<int32_t> bt;
-  std::vector<std::array<double, 3>> bx;
+  std::vector<double> bx;  // the points, three coordinates each
   std::vector<double> bd;
   while (!heap.empty() && st.inserted < max_inserts && !stopped()) {
     items.clear();
@@ -543,14 +543,13 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     if (items.size() > 1)
       for (const Item& it : items)
         if (current(it) && !ed.point_planned(it.t)) {
-          std::array<double, 3> cc;
-          ratio_of(it.t, cc.data());
+          double cc[3];
+          ratio_of(it.t, cc);
           bt.push_back(it.t);
-          bx.push_back(cc);
+          bx.insert(bx.end(), cc, cc + 3);
           bd.push_back(o.min_dist * size_at(it.t));
         }
-    ed.plan_points(bt.data(), reinterpret_cast<const double(*)[3]>(bx.data()), bd.data(),
-                   static_cast<int>(bt.size()), acc);
+    ed.plan_points(bt.data(), bx.data(), bd.data(), static_cast<int>(bt.size()), acc);
     const int64_t redone0 = ed.points_redone(), used0 = ed.points_used();
     size_t taken = items.size();
     for (size_t j = 0; j < items.size(); ++j) {

@@ -198,9 +198,14 @@ struct TopoEditor::PointSearch {
   int32_t t = -1;
   double x[3] = {0, 0, 0};
   double min_dist = 0;
+  Acceptance acc;  // what the search's refusal (p.r) was judged with
   uint32_t epoch = 0;
   std::vector<int32_t> reads;
 };
+
+bool same_acceptance(const Acceptance& a, const Acceptance& b) {
+  return a.on == b.on && a.floor == b.floor && a.cap == b.cap && a.ratio == b.ratio;
+}
 
 // plan_points' searches: a pool of entries, the entry of each tet slot
 // planned and not yet used (of_tet), and each thread's marks (insert_point's
@@ -1305,11 +1310,26 @@ TopoResult TopoEditor::insert_found(int32_t t, InsertSearch& s) {
   return commit_cone(c, bx, s.face, s.nf, nullptr);
 }
 
+int TopoEditor::plan_threads(int requested) {
+#ifdef TETOPT_HAVE_TBB
+  return std::min(detail::resolve_threads(requested), tbb::info::default_concurrency());
+#else
+  (void)requested;
+  return 1;
+#endif
+}
+
+bool TopoEditor::unchanged_since(const std::vector<int32_t>& reads, uint32_t epoch) const {
+  for (const int32_t r : reads)
+    if (tstamp_[r] >= epoch) return false;
+  return true;
+}
+
 int TopoEditor::plan_inserts(const int32_t* tets, int n) {
   if (!iplans_) {
     iplans_ = new InsertPlans;
 #ifdef TETOPT_HAVE_TBB
-    iplans_->threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
+    iplans_->threads = plan_threads(o_.threads);
     if (iplans_->threads > 1) iplans_->arena.emplace(iplans_->threads);
 #endif
   }
@@ -1330,6 +1350,9 @@ int TopoEditor::plan_inserts(const int32_t* tets, int n) {
         x.epoch = epoch;
         x.t = alive(tets[i]) ? tets[i] : -1;
         if (x.t >= 0) search_insert(x.t, x, &x.reads);
+        // Each growth step reads its cavity again: check each tet once.
+        std::sort(x.reads.begin(), x.reads.end());
+        x.reads.erase(std::unique(x.reads.begin(), x.reads.end()), x.reads.end());
       }
     });
   });
@@ -1346,9 +1369,7 @@ TopoResult TopoEditor::insert_planned(int i, int32_t t) {
   if (!alive(t) || o_.measure != TopoMeasure::Alpha) return TopoResult::NotApplicable;
   if (iplans_ && i >= 0 && i < iplans_->n) {
     InsertSearch& x = iplans_->s[static_cast<size_t>(i)];
-    bool same = x.t == t;
-    for (size_t k = 0; same && k < x.reads.size(); ++k) same = tstamp_[x.reads[k]] < x.epoch;
-    if (same) {
+    if (x.t == t && unchanged_since(x.reads, x.epoch)) {
       ++inserts_used_;
       return insert_found(t, x);
     }
@@ -1357,13 +1378,13 @@ TopoResult TopoEditor::insert_planned(int i, int32_t t) {
   return insert_vertex(t);
 }
 
-int TopoEditor::plan_points(const int32_t* tets, const double (*x)[3], const double* min_dist, int n,
+int TopoEditor::plan_points(const int32_t* tets, const double* x, const double* min_dist, int n,
                             const Acceptance& acc) {
 #ifdef TETOPT_HAVE_TBB
   if (!lb_.empty() || o_.measure != TopoMeasure::Alpha) return 0;
   if (!pplans_) {
     pplans_ = new PointPlans;
-    pplans_->threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
+    pplans_->threads = plan_threads(o_.threads);
     if (pplans_->threads > 1) pplans_->arena.emplace(pplans_->threads);
   }
   PointPlans& P = *pplans_;
@@ -1378,7 +1399,8 @@ int TopoEditor::plan_points(const int32_t* tets, const double (*x)[3], const dou
     int e = P.of_tet[t];
     if (e >= 0) {
       const PointSearch& p = P.pool[static_cast<size_t>(e)];
-      if (p.t == t && tstamp_[t] < p.epoch && std::memcmp(p.x, x[i], sizeof p.x) == 0 && p.min_dist == min_dist[i])
+      if (p.t == t && tstamp_[t] < p.epoch && std::memcmp(p.x, x + 3 * i, sizeof p.x) == 0 &&
+          p.min_dist == min_dist[i] && same_acceptance(p.acc, acc))
         continue;
     } else if (!P.free.empty()) {
       e = P.free.back();
@@ -1390,8 +1412,9 @@ int TopoEditor::plan_points(const int32_t* tets, const double (*x)[3], const dou
     P.of_tet[t] = e;
     PointSearch& p = P.pool[static_cast<size_t>(e)];
     p.t = t;
-    std::copy(x[i], x[i] + 3, p.x);
+    std::copy(x + 3 * i, x + 3 * i + 3, p.x);
     p.min_dist = min_dist[i];
+    p.acc = acc;
     P.todo.push_back(e);
   }
   if (P.todo.size() < 4) {  // too few to pay for waking a thread: searched when used
@@ -1439,9 +1462,8 @@ TopoResult TopoEditor::insert_point_planned(int32_t t, const double* x, const Ac
     P.of_tet[t] = -1;
     P.free.push_back(e);
     PointSearch& p = P.pool[static_cast<size_t>(e)];
-    bool same = p.t == t && std::memcmp(p.x, x, sizeof p.x) == 0 && p.min_dist == min_dist;
-    for (size_t k = 0; same && k < p.reads.size(); ++k) same = tstamp_[p.reads[k]] < p.epoch;
-    if (same) {
+    if (p.t == t && std::memcmp(p.x, x, sizeof p.x) == 0 && p.min_dist == min_dist && same_acceptance(p.acc, acc) &&
+        unchanged_since(p.reads, p.epoch)) {
       ++points_used_;
       // The entry stays intact until the next plan_points call.
       return p.r == TopoResult::Applied ? point_found(t, x, acc, p, made) : p.r;
@@ -2047,6 +2069,14 @@ TopoResult TopoEditor::improve_tet_pair(int32_t t, int reach) {
 namespace {
 // TopoOptions::stop (an abort) is set.
 inline bool halted(const TopoOptions& o) { return o.stop && o.stop->load(std::memory_order_relaxed); }
+// Sets a flag for a scope (TopoEditor::nocache_ while threads plan).
+struct NoCache {
+  bool& f;
+  explicit NoCache(bool& flag) : f(flag) { f = true; }
+  ~NoCache() { f = false; }
+  NoCache(const NoCache&) = delete;
+  NoCache& operator=(const NoCache&) = delete;
+};
 }  // namespace
 
 int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, bool kind4_only, double threshold) {
@@ -2069,7 +2099,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
   // on two vertices of every tet read also redid plans next to a change:
   // 4,884 replans on the demo impeller, 90% of them giving the same plan
   // again.
-  const int threads = std::min(detail::resolve_threads(o_.threads), tbb::info::default_concurrency());
+  const int threads = plan_threads(o_.threads);
   // The window adapts to how often a plan is found invalid: where poor tets
   // are dense (a jittered box: 84% of 411k plans were redone at W = 512,
   // in 94k parallel batches, and 2 threads took 1.6x the time of 1), it
@@ -2115,13 +2145,7 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
         p.state = 1;
       }
     };
-    auto valid = [&](size_t i) {
-      const Plan& p = plan[i];
-      if (p.state == 0) return false;
-      for (const int32_t r : p.reads)
-        if (tstamp_[r] >= p.epoch) return false;
-      return true;
-    };
+    auto valid = [&](size_t i) { return plan[i].state != 0 && unchanged_since(plan[i].reads, plan[i].epoch); };
     // Entries after an invalid one that are replanned with it (see below).
     constexpr size_t kAhead = 64;
     std::vector<size_t> redo;
@@ -2140,11 +2164,12 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
         n = std::min(win, work.size() - w0);
         size_t redone = 0;
         const uint32_t s0 = next_stamp();
-        nocache_ = true;
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t i = r.begin(); i < r.end(); ++i) plan_one(i, s0);
-        });
-        nocache_ = false;
+        {
+          const NoCache nc(nocache_);
+          tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 8), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i < r.end(); ++i) plan_one(i, s0);
+          });
+        }
         stats_.planned_ahead += static_cast<int64_t>(n);
         for (size_t i = 0; i < n; ++i) {
           const int32_t t = work[w0 + i];
@@ -2163,11 +2188,10 @@ int64_t TopoEditor::improve_tets(const std::vector<int32_t>& work, bool strict, 
             if (redo.size() == 1) {  // no batch to share: no wake-up to wait for
               plan_one(i, s1);
             } else {
-              nocache_ = true;
+              const NoCache nc(nocache_);
               tbb::parallel_for(tbb::blocked_range<size_t>(0, redo.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
                 for (size_t j = r.begin(); j < r.end(); ++j) plan_one(redo[j], s1);
               });
-              nocache_ = false;
             }
             ++redone;
           }

@@ -328,20 +328,25 @@ class TopoEditor {
   /// measure only.
   TopoResult insert_point(int32_t t, const double* x, const Acceptance& acc, double min_dist = 0,
                           std::vector<int32_t>* made = nullptr);
-  /// insert_point on (tets[i], x[i], acc, min_dist[i]), i < n, one by one
+  /// insert_point on (tets[i], x + 3i, acc, min_dist[i]), i < n, one by one
   /// later, in any order (insert_point_planned), as plan_inserts does for
   /// insert_vertex: with TopoOptions::threads > 1 the cavity searches run
   /// now, in parallel, except for a tet planned before with the same point
   /// and distance and not used since.  insert_point_planned uses a tet's
   /// search when it was for the same point and distance and no commit since
-  /// has written a tet it read, and searches again otherwise.  The same acc
-  /// must be given to both.  Returns the number of searches made.
-  int plan_points(const int32_t* tets, const double (*x)[3], const double* min_dist, int n, const Acceptance& acc);
+  /// has written a tet it read, and searches again otherwise (also when
+  /// given another acc than the search's).  Returns the number of searches
+  /// made.
+  int plan_points(const int32_t* tets, const double* x, const double* min_dist, int n, const Acceptance& acc);
   TopoResult insert_point_planned(int32_t t, const double* x, const Acceptance& acc, double min_dist,
                                   std::vector<int32_t>* made = nullptr);
   /// True when tet t has a search of plan_points not yet used, made while
   /// slot t held the tet it holds now.
   bool point_planned(int32_t t) const;
+  /// Threads the searches made ahead (plan_inserts, plan_points,
+  /// improve_tets) use for TopoOptions::threads = requested: 1 without
+  /// oneTBB or with one hardware thread.
+  static int plan_threads(int requested);
   int64_t points_used() const { return points_used_; }      ///< searches of plan_points used
   int64_t points_redone() const { return points_redone_; }  ///< and made again
   /// Edge collapse: remove_vertex restricted to the contraction of one
@@ -455,6 +460,8 @@ class TopoEditor {
   struct InsertPlans;
   void search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>* reads) const;
   TopoResult insert_found(int32_t t, InsertSearch& s);
+  // True when no commit since epoch has written any of the tets `reads`.
+  bool unchanged_since(const std::vector<int32_t>& reads, uint32_t epoch) const;
   // The scratch candidate of an insertion at tet t replacing old[0..n).
   Candidate& cone_candidate(int32_t t, const int32_t* old, int n);
   // insert_point = search_point (the cavity, read only; the marks are the
@@ -505,7 +512,10 @@ class TopoEditor {
   double deferred(int32_t t) const;
   // Set while improve_tets plans in parallel: deferred() then computes a
   // measure without storing it (the threads would race on the cache; the
-  // number is the same either way, so only the cost differs).
+  // number is the same either way, so only the cost differs).  Which
+  // deferred measures end up stored then depends on the thread count;
+  // below() and min_cached() give the same answers either way because lb_
+  // is a true lower bound (Topo.DihedralMeasureDeferralIsALowerBound).
   bool nocache_ = false;
   void fill_cache();
 

@@ -9,7 +9,6 @@
 #include <cstring>
 #include <random>
 #include <set>
-#include <thread>
 #include <vector>
 
 #include "tetopt/generate.hpp"
@@ -260,7 +259,7 @@ TEST(Insert, MemoSkipsWhatARefusalStillCoversAndNothingElse) {
 // searches used and (on these rough boxes, where cavities overlap) some made
 // again.  Also the promise: constrained faces, original coordinates.
 TEST(Insert, SearchesMadeAheadGiveTheSerialResultBitForBit) {
-  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "one hardware thread: no search runs ahead";
+  if (TopoEditor::plan_threads(2) < 2) GTEST_SKIP() << "no second thread (one hardware thread, or no oneTBB)";
   int64_t used = 0, redone = 0;
   for (int regions : {1, 2})
     for (uint64_t seed : {1u, 2u, 3u, 4u}) {
@@ -938,7 +937,7 @@ TEST(Remesh, RefinePassFillsAMeshWithNoInteriorVertex) {
 // be the serial one bit for bit, with searches used, searches made again
 // and entries pushed back all seen.
 TEST(Remesh, RefineSearchesMadeAheadGiveTheSerialResultBitForBit) {
-  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "one hardware thread: no search runs ahead";
+  if (TopoEditor::plan_threads(2) < 2) GTEST_SKIP() << "no second thread (one hardware thread, or no oneTBB)";
   int64_t used = 0, redone = 0, pushed = 0;
   for (double size : {0.0, 0.5, 0.35}) {
     SCOPED_TRACE(size);
