@@ -23,6 +23,15 @@ namespace tetopt {
 // The most tets of a free vertex's star that a signature covers.
 constexpr size_t kStarMax = 128;
 
+// The size of the next window of searches made ahead (insert_pass,
+// refine_pass): halved while more than 1 search in 8 was made again,
+// doubled while fewer than 1 in 32 were (TopoEditor::improve_tets' rule).
+static size_t next_window(size_t win, int64_t redone, int64_t used, size_t lo, size_t hi) {
+  if (8 * redone > redone + used) return std::max(lo, win / 2);
+  if (32 * redone < redone + used) return std::min(hi, 2 * win);
+  return win;
+}
+
 InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   InsertStats st;
@@ -165,6 +174,7 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
     // more than 1 search in 8 is made again and doubles while fewer than 1
     // in 32 are (as TopoEditor::improve_tets does).
     constexpr size_t kWinMin = 8, kWinMax = 256;
+    const bool ahead = o.insert && TopoEditor::plan_threads(o.threads) > 1;
     size_t win = 32;
     std::vector<int32_t> batch;
     std::vector<int> slot;       // per entry of the window: its search, or -1
@@ -174,7 +184,7 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
       batch.clear();
       slot.assign(w1 - w0, -1);
       judged.assign(w1 - w0, -1);
-      if (o.threads != 1 && o.insert)
+      if (ahead)
         for (size_t k = w0; k < w1; ++k)
           if ((judged[k - w0] = static_cast<int8_t>(verdict(work[k]))) == 2) {
             slot[k - w0] = static_cast<int>(batch.size());
@@ -204,9 +214,7 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o, const LogFn& log) {
           std::copy(m.tet(t), m.tet(t) + 4, failed_v[t].begin());
         }
       }
-      const int64_t redone = ed.inserts_redone() - redone0, used = ed.inserts_used() - used0;
-      if (8 * redone > redone + used) win = std::max(kWinMin, win / 2);
-      else if (32 * redone < redone + used) win = std::min(kWinMax, 2 * win);
+      win = next_window(win, ed.inserts_redone() - redone0, ed.inserts_used() - used0, kWinMin, kWinMax);
       w0 = w1;
     }
     st.inserted += ins;
@@ -481,6 +489,7 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     double ratio;
     int32_t t;
     int32_t v[4];
+    double cc[3];  // the circumcentre (the same while the tet is current)
     bool operator<(const Item& y) const { return ratio != y.ratio ? ratio < y.ratio : t > y.t; }
   };
   std::priority_queue<Item> heap;
@@ -496,7 +505,7 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     const double r = ratio_of(t, cc);
     if (r > o.radius_above) {
       const int32_t* tv = m.tet(t);
-      heap.push({r, t, {tv[0], tv[1], tv[2], tv[3]}});
+      heap.push({r, t, {tv[0], tv[1], tv[2], tv[3]}, {cc[0], cc[1], cc[2]}});
     }
   };
   for (int32_t t = 0; t < m.nt(); ++t)
@@ -526,7 +535,8 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     return 0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
   };
   constexpr size_t kWinMin = 4, kWinMax = 128;
-  size_t win = o.threads != 1 ? 16 : 1;
+  const bool ahead = TopoEditor::plan_threads(o.threads) > 1;
+  size_t win = ahead ? 16 : 1;
   std::vector<Item> items;
   std::vector<int32_t> bt;
   std::vector<double> bx;  // the points, three coordinates each
@@ -543,10 +553,8 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     if (items.size() > 1)
       for (const Item& it : items)
         if (current(it) && !ed.point_planned(it.t)) {
-          double cc[3];
-          ratio_of(it.t, cc);
           bt.push_back(it.t);
-          bx.insert(bx.end(), cc, cc + 3);
+          bx.insert(bx.end(), it.cc, it.cc + 3);
           bd.push_back(o.min_dist * size_at(it.t));
         }
     ed.plan_points(bt.data(), bx.data(), bd.data(), static_cast<int>(bt.size()), acc);
@@ -561,11 +569,9 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
       }
       const Item& it = items[j];
       if (!current(it)) continue;
-      double cc[3];
-      ratio_of(it.t, cc);
       const double hn = size_at(it.t);
       ++st.tried;
-      const TopoResult rr = ed.insert_point_planned(it.t, cc, acc, o.min_dist * hn, &made);
+      const TopoResult rr = ed.insert_point_planned(it.t, it.cc, acc, o.min_dist * hn, &made);
       ++why[static_cast<int>(rr)];
       if (rr != TopoResult::Applied) continue;
       h.push_back(hn);
@@ -573,10 +579,8 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
       for (int32_t n : made) consider(n);
     }
     ++st.windows;
-    if (o.threads != 1) {
-      const int64_t redone = ed.points_redone() - redone0, used = ed.points_used() - used0;
-      if (8 * redone > redone + used) win = std::max(kWinMin, win / 2);
-      else if (32 * redone < redone + used) win = std::min(kWinMax, 2 * win);
+    if (ahead) {
+      win = next_window(win, ed.points_redone() - redone0, ed.points_used() - used0, kWinMin, kWinMax);
       // No larger than twice what this window took before a new tet came first.
       win = std::clamp(std::min(win, 2 * taken), kWinMin, kWinMax);
     }

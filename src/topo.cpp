@@ -180,7 +180,6 @@ struct TopoEditor::InsertSearch {
   int32_t face[kMaxOuter][3];
   double x[3] = {0, 0, 0};
   double f = -kInf;
-  bool have_x = false;
   // plan_inserts: the tet planned, its epoch, and every tet the search read.
   int32_t t = -1;
   uint32_t epoch = 0;
@@ -1288,7 +1287,6 @@ void TopoEditor::search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>*
   std::copy(&best_face[0][0], &best_face[0][0] + 3 * best_nf, &s.face[0][0]);
   std::copy(best_x, best_x + 3, s.x);
   s.f = best_f;
-  s.have_x = have_x;
 }
 
 TopoEditor::Candidate& TopoEditor::cone_candidate(int32_t t, const int32_t* old, int n) {
