@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <set>
 #include <vector>
@@ -928,6 +929,54 @@ TEST(Remesh, RefinePassFillsAMeshWithNoInteriorVertex) {
   ASSERT_TRUE(sf.status.ok());
   EXPECT_GT(sf.inserted, st.inserted);
   expect_promise(before, fine, w0);
+}
+
+// refine_pass on a raw mesh grades its vertices' sizes from the wall
+// (insert.hpp, RefineOptions): a raw constrained vertex keeps its surface
+// size (remesh_pass's graded size, larger at some of them, is only a cap),
+// and a circumcentre takes at most the least size at its tet's vertices plus
+// log(1.3) times its distance from them (not checked here: in a mesh that
+// is not Delaunay another vertex may be nearer than the tet's four), and
+// never more than the cap: no new vertex is finer than the finest surface
+// size or coarser than the largest graded size, and some are coarser than
+// the surface.
+TEST(Remesh, RefineGradesNewSizesFromTheSurface) {
+  constexpr double eps = 1e-9;
+  const TetMesh before = hollow_box();
+  const InputSizes in = input_sizes(before);
+  const int32_t nv0 = before.nv();
+  TetMesh m = before;
+  std::vector<double> h;
+  const RefineStats st = refine_pass(m, h, RefineOptions{});
+  ASSERT_TRUE(st.status.ok());
+  ASSERT_GT(st.inserted, 0);
+  ASSERT_EQ(h.size(), static_cast<size_t>(m.nv()));
+  // remesh_pass's field on the same input: the graded sizes.
+  TetMesh copy = before;
+  std::vector<double> hg;
+  RemeshOptions ro;
+  ro.max_loops = 1;
+  ASSERT_TRUE(remesh_pass(copy, hg, ro).status.ok());
+  int raw = 0, graded = 0;
+  double cap = 0, finest = std::numeric_limits<double>::infinity();
+  for (int32_t v = 0; v < nv0; ++v) {
+    cap = std::max(cap, hg[v]);
+    if (!before.vert_constrained[v] || in.free_near[v]) continue;
+    ++raw;
+    finest = std::min(finest, in.surf[v]);
+    EXPECT_NEAR(h[v], in.surf[v], eps * in.surf[v]) << v;
+    graded += hg[v] > in.surf[v] * (1 + 1e-6);
+  }
+  EXPECT_GT(raw, 0);
+  EXPECT_GT(graded, 0) << "the graded size never exceeded the surface size: nothing to tell apart";
+  int coarser = 0;
+  for (int32_t v = nv0; v < m.nv(); ++v) {
+    EXPECT_GE(h[v], finest * (1 - eps)) << v;
+    EXPECT_LE(h[v], cap * (1 + eps)) << v;
+    coarser += h[v] > finest * (1 + 1e-6);
+  }
+  EXPECT_GT(coarser, 0) << "no new vertex grew coarser than the wall";
+  expect_promise(before, m, worst(before));
 }
 
 // With threads, refine_pass searches the cavities of a window of the heap's
