@@ -554,9 +554,15 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     const int32_t* tv = m.tet(it.t);
     return tv[0] == it.v[0] && tv[1] == it.v[1] && tv[2] == it.v[2] && tv[3] == it.v[3];
   };
-  auto size_at = [&](int32_t t) {
-    const int32_t* tv = m.tet(t);
-    return 0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
+  // The size of the vertex it.cc would make, and its cap (see
+  // kWallGradation; the mean of the tet's sizes where the mesh is not raw).
+  auto new_size = [&](const Item& it, double& capn) {
+    const int32_t* tv = m.tet(it.t);
+    capn = 0;
+    if (cap.empty()) return 0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
+    capn = 0.25 * (cap[tv[0]] + cap[tv[1]] + cap[tv[2]] + cap[tv[3]]);
+    const double hmin = std::min(std::min(h[tv[0]], h[tv[1]]), std::min(h[tv[2]], h[tv[3]]));
+    return std::min(capn, hmin + kWallGradation * dist(it.cc, m.point(tv[0])));
   };
   constexpr size_t kWinMin = 4, kWinMax = 128;
   const bool ahead = TopoEditor::plan_threads(o.threads) > 1;
@@ -579,7 +585,8 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
         if (current(it) && !ed.point_planned(it.t)) {
           bt.push_back(it.t);
           bx.insert(bx.end(), it.cc, it.cc + 3);
-          bd.push_back(o.min_dist * size_at(it.t));
+          double capn;
+          bd.push_back(o.min_dist * new_size(it, capn));
         }
     ed.plan_points(bt.data(), bx.data(), bd.data(), static_cast<int>(bt.size()), acc);
     const int64_t redone0 = ed.points_redone(), used0 = ed.points_used();
@@ -593,14 +600,8 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
       }
       const Item& it = items[j];
       if (!current(it)) continue;
-      double hn = size_at(it.t), capn = 0;
-      if (!cap.empty()) {
-        const int32_t* tv = m.tet(it.t);
-        capn = 0.25 * (cap[tv[0]] + cap[tv[1]] + cap[tv[2]] + cap[tv[3]]);
-        const double hmin = std::min(std::min(h[tv[0]], h[tv[1]]), std::min(h[tv[2]], h[tv[3]]));
-        const double r = dist(it.cc, m.point(tv[0]));
-        hn = std::min(capn, hmin + kWallGradation * r);
-      }
+      double capn;
+      const double hn = new_size(it, capn);
       ++st.tried;
       const TopoResult rr = ed.insert_point_planned(it.t, it.cc, acc, o.min_dist * hn, &made);
       ++why[static_cast<int>(rr)];
