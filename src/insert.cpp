@@ -556,13 +556,15 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
   };
   // The size of the vertex it.cc would make, and its cap (see
   // kWallGradation; the mean of the tet's sizes where the mesh is not raw).
-  auto new_size = [&](const Item& it, double& capn) {
+  struct NewSize {
+    double h, cap;
+  };
+  auto new_size = [&](const Item& it) -> NewSize {
     const int32_t* tv = m.tet(it.t);
-    capn = 0;
-    if (cap.empty()) return 0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]);
-    capn = 0.25 * (cap[tv[0]] + cap[tv[1]] + cap[tv[2]] + cap[tv[3]]);
+    if (cap.empty()) return {0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]), 0};
+    const double capn = 0.25 * (cap[tv[0]] + cap[tv[1]] + cap[tv[2]] + cap[tv[3]]);
     const double hmin = std::min(std::min(h[tv[0]], h[tv[1]]), std::min(h[tv[2]], h[tv[3]]));
-    return std::min(capn, hmin + kWallGradation * dist(it.cc, m.point(tv[0])));
+    return {std::min(capn, hmin + kWallGradation * dist(it.cc, m.point(tv[0]))), capn};
   };
   constexpr size_t kWinMin = 4, kWinMax = 128;
   const bool ahead = TopoEditor::plan_threads(o.threads) > 1;
@@ -577,18 +579,18 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
       items.push_back(heap.top());
       heap.pop();
     }
-    bt.clear();
-    bx.clear();
-    bd.clear();
-    if (items.size() > 1)
+    if (ahead && items.size() > 1) {
+      bt.clear();
+      bx.clear();
+      bd.clear();
       for (const Item& it : items)
         if (current(it) && !ed.point_planned(it.t)) {
           bt.push_back(it.t);
           bx.insert(bx.end(), it.cc, it.cc + 3);
-          double capn;
-          bd.push_back(o.min_dist * new_size(it, capn));
+          bd.push_back(o.min_dist * new_size(it).h);
         }
-    ed.plan_points(bt.data(), bx.data(), bd.data(), static_cast<int>(bt.size()), acc);
+      ed.plan_points(bt.data(), bx.data(), bd.data(), static_cast<int>(bt.size()), acc);
+    }
     const int64_t redone0 = ed.points_redone(), used0 = ed.points_used();
     size_t taken = items.size();
     for (size_t j = 0; j < items.size(); ++j) {
@@ -600,8 +602,7 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
       }
       const Item& it = items[j];
       if (!current(it)) continue;
-      double capn;
-      const double hn = new_size(it, capn);
+      const auto [hn, capn] = new_size(it);
       ++st.tried;
       const TopoResult rr = ed.insert_point_planned(it.t, it.cc, acc, o.min_dist * hn, &made);
       ++why[static_cast<int>(rr)];
