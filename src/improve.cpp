@@ -73,6 +73,7 @@ class Driver {
       if (std::string(phase) == "done") last_fraction_ = 1.0;
       p.fraction = last_fraction_;
       p.worst = last_worst_;
+      if (round_ > 0) p.threshold = std::isnan(round_gamma_) ? o_.threshold : round_gamma_;
       if (!o_.progress(p)) cancelled_ = true;
     }
     return !stopped();
@@ -240,6 +241,7 @@ class Driver {
   static constexpr double kGammaMax = 0.6;       // mode best: highest threshold
   static constexpr double kWideFraction = 0.05;  // mode best: a raised threshold may take in this
   static constexpr double kWideMin = 20000;      // fraction of the tets, or this many
+  static constexpr double kWideMinAtBound = 2000;  // or this many, once the worst is at the bound
   static constexpr double kMinRise = 0.01;       // mode best: smallest rise of gamma worth a round
   // The dihedral pass may not add tets below this alpha (TopoOptions::
   // alpha_keep).  With only the worst alpha as its floor, a mesh whose worst
@@ -358,7 +360,9 @@ class Driver {
     for (int round = 0; round < std::max(1, o_.iterations) && !stopped(); ++round) {
       if (round > 0) refresh_guard();
       round_ = round + 1;
-      progress("round " + std::to_string(round + 1) + ": worst alpha " + std::to_string(prev_worst));
+      round_gamma_ = gamma;
+      progress("round " + std::to_string(round + 1) + ": worst alpha " + std::to_string(prev_worst) + ", threshold " +
+               std::to_string(gamma));
       // A stop between phases ends the run there (rounds counts the round
       // begun): every phase leaves a valid mesh.
       constexpr double kPhases = 6;
@@ -437,14 +441,28 @@ class Driver {
       // jittered boxes of 162k / 384k tets ended at 0.4000 / 0.3000 (1.3 /
       // 2.2 s at 2 threads), now 0.5087 / 0.4685 (4.2 / 4.8 s); the
       // impeller (worst tet all-boundary) and the shared meshes end as before.
+      // With --allow-insert, once the worst alpha is at the mesh's bound
+      // (worst_at_bound) no round can raise it, and a wider set only serves
+      // the distribution: the threshold then rises only while at most
+      // kWideFraction of the tets or kWideMinAtBound lie below it (not
+      // kWideMin, and never capped).  The mean polish and the poor-tet
+      // polish see to the distribution after the rounds.  On bib_0p25 the
+      // round at 0.6 took 16,350 of its 131k tets (a quarter of the run)
+      // for a mean alpha of 0.7543 instead of 0.7483, with the same 16 tets
+      // below 0.2; farm-bench: 0.73x the time (bib_0p5 0.7614 -> 0.7555,
+      // flange 0.7362 -> 0.7332, the same count below 0.2;
+      // docs/benchmarks.md, twenty-fifth session).  Without the floor of
+      // 2,000 a needle box of 432 tets (test_poor_polish) ended with 5 tets
+      // below 0.2 instead of 4: on small meshes the wide rounds are cheap.
       if (w <= prev_worst + 1e-6) {
         ++stale;
         if (capped) break;
         const double next = std::min(kGammaMax, gamma + 0.1);
-        const double wide = std::max(kWideFraction * static_cast<double>(m_.nt()), kWideMin);
+        const bool at_bound = worst_at_bound(w);
+        const double wide = std::max(kWideFraction * static_cast<double>(m_.nt()), at_bound ? kWideMinAtBound : kWideMin);
         if (next > gamma && static_cast<double>(count_below(next)) <= wide) {
           gamma = next;
-        } else if (const double q = next > gamma && (o_.allow_insert || worst_has_free_vertex())
+        } else if (const double q = next > gamma && !at_bound && (o_.allow_insert || worst_has_free_vertex())
                                         ? std::min(next, alpha_quantile(static_cast<int64_t>(wide)))
                                         : gamma;
                    q > gamma + kMinRise) {
@@ -778,6 +796,27 @@ class Driver {
                           : detail::parallel_min(static_cast<int64_t>(alpha_.size()), threads_,
                                                  [&](int64_t t) { return alpha_[t]; });
   }
+  // Whether the worst alpha w is within kAtBound of what the constrained
+  // faces allow any mesh that keeps them (mesh_bound without walls: fixed
+  // for the run, as those faces never change; 0.05 s on bib_0p25).
+  // Only with --allow-insert and the alpha objective (the default mode
+  // keeps its time; another objective's worst is not an alpha).
+  bool worst_at_bound(double w) {
+    if (!o_.allow_insert || o_.objective != Objective::Alpha) return false;
+    return w >= kAtBound * bound();
+  }
+  // The mesh bound on alpha without walls (mesh_bound), computed once.
+  double bound() {
+    if (bound_ < 0) {
+      const auto t = Clock::now();
+      bound_ = mesh_bound(m_, threads_, false, /*walls=*/false).alpha;
+      if (log_)
+        log_(LogLevel::Debug, "mesh bound " + std::to_string(bound_) + " (" + std::to_string(since(t)) + " s)");
+    }
+    return bound_;
+  }
+  static constexpr double kAtBound = 0.99;
+  double bound_ = -1;  // worst_at_bound's mesh bound, once computed
   // Whether the worst tet (the first of the smallest cached alpha) has a
   // vertex smoothing may move.  A worst tet with four constrained vertices
   // changes only by flips, which every round at the current gamma tried.
@@ -814,6 +853,7 @@ class Driver {
   LogFn sub_log_;
   const std::atomic<bool>* stop_;
   bool cancelled_ = false;  // the progress callback returned false
+  double round_gamma_ = NAN;  // mode best's threshold in its rounds (NaN: o_.threshold)
   int round_ = 0;           // 1-based round for ImproveProgress, 0 outside the rounds
   int round_base_ = 0;      // rounds planned for the trials before this one (mode best)
   int trials_ = 1;          // mode best's trials (best_trial_gammas), for ImproveProgress::fraction
@@ -944,7 +984,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
     // bound (mesh_bound) runs the rounds and the polish once more.
     if (opt.allow_insert && opt.remesh && opt.objective == Objective::Alpha && !d.stopped()) {
       const auto tb = Clock::now();
-      double ceiling = mesh_bound(m, opt.threads, false, /*walls=*/false).alpha;
+      double ceiling = d.bound();
       const double w = d.score().first;
       if (w < kAgainBelow * ceiling) {
         const double cap = near_worst_cap(m, w);

@@ -189,8 +189,8 @@ int cmd_improve(const std::vector<std::string>& args) {
   if (tty)
     opt.progress = [obj = objective_name(opt.objective)](const ImproveProgress& p) {
       if (p.round > 0)
-        std::fprintf(stderr, "round %d, %s: %3.0f%%, worst %s %.4f\033[K\r", p.round, p.phase, 100 * p.fraction, obj,
-                     p.worst);
+        std::fprintf(stderr, "round %d (threshold %.2f), %s: %3.0f%%, worst %s %.4f\033[K\r", p.round, p.threshold, p.phase,
+                     100 * p.fraction, obj, p.worst);
       else if (std::isnan(p.worst))  // not known yet (start)
         std::fprintf(stderr, "%s: %3.0f%%\033[K\r", p.phase, 100 * p.fraction);
       else

@@ -48,6 +48,10 @@ struct ImproveProgress {
   /// The worst q of the objective (alpha by default) as the driver last saw
   /// it (its cache is not refilled for this; NaN before it is first known).
   double worst = NAN;
+  /// The round's threshold: the tets below it are the round's poor tets
+  /// (ImproveOptions::threshold, or mode best's raised one); NaN outside
+  /// the rounds.
+  double threshold = NAN;
 };
 /// Progress callback: return false to stop the run at this point; improve()
 /// then returns ErrorCode::Stopped with a valid mesh.  Called on the thread

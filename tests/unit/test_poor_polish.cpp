@@ -7,8 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <string>
+#include <vector>
 
 #include "needle_box.hpp"
+#include "tetopt/diagnose.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/improve.hpp"
 #include "tetopt/mesh.hpp"
@@ -65,4 +68,68 @@ TEST(PoorPolish, LiftsPoorTetsAroundMilderNeedlesWithoutLoweringTheWorst) {
     EXPECT_LE(r.below, c.at_most) << "seed " << c.seed;
     EXPECT_GT(r.worst, 0.001) << "seed " << c.seed;
   }
+}
+
+// Mode best with --allow-insert, once the worst alpha is within 1% of the
+// mesh bound (improve.cpp, Driver::worst_at_bound): no round can raise the
+// worst, so a round that raised nothing raises the threshold only while at
+// most 5% of the tets or 2,000 lie below the new one (kWideFraction,
+// kWideMinAtBound; without the bound, up to 20,000 tets or a quantile).
+// With the bound ignored this fails (2,202 tets below a raised threshold).  The progress callback sees each
+// round's threshold (ImproveProgress::threshold) and the mesh at the end of
+// each round ("smooth-maxmin"), from which the next round's set is counted
+// as the driver counts it.  The box must meet such a refusal (a raise the
+// rule without the bound would have made), else the test shows nothing.
+TEST(PoorPolish, AtTheBoundTheRoundsWidenOverAFewTetsOnly) {
+  TetMesh m = tetopt_test::needle_box(26, 3, 5);
+  ASSERT_TRUE(build_topology(m).ok());
+  const double bound = mesh_bound(m, 1, false, /*walls=*/false).alpha;
+  ASSERT_GT(bound, 0);
+  struct End {
+    int round;
+    double gamma, worst;
+    std::vector<double> alpha;
+  };
+  std::vector<End> ends;
+  int last_round = 0;
+  int checked = 0, refused = 0;
+  // The decision after round e, seen at the start of the next one (or at
+  // the end of the run: next_gamma NaN).
+  auto judge = [&](const End& e, const End* before, double next_gamma) {
+    if (!(e.worst >= 0.99 * bound)) return;
+    if (before && before->round + 1 == e.round && e.worst > before->worst + 1e-6) return;  // the worst rose
+    auto below = [&](double g) { return std::count_if(e.alpha.begin(), e.alpha.end(), [&](double a) { return a < g; }); };
+    const double fifth = std::max(0.05 * static_cast<double>(e.alpha.size()), 2000.0);
+    if (next_gamma > e.gamma + 1e-12) {
+      ++checked;
+      EXPECT_LE(static_cast<double>(below(next_gamma)), fifth) << "round " << e.round << " -> threshold " << next_gamma;
+    } else if (e.gamma < 0.6 - 1e-12 && static_cast<double>(below(std::min(0.6, e.gamma + 0.1))) > fifth) {
+      ++refused;
+    }
+  };
+  ImproveOptions o;
+  o.mode = ImproveMode::Best;
+  o.allow_insert = o.allow_remove = true;
+  o.progress = [&](const ImproveProgress& p) {
+    if (p.round > 0 && std::string(p.phase) == "all-boundary") {
+      if (!ends.empty() && ends.back().round + 1 == p.round)
+        judge(ends.back(), ends.size() > 1 ? &ends[ends.size() - 2] : nullptr, p.threshold);
+      else if (!ends.empty() && p.round <= last_round)
+        judge(ends.back(), ends.size() > 1 ? &ends[ends.size() - 2] : nullptr, NAN);
+      last_round = p.round;
+    }
+    if (p.round > 0 && std::string(p.phase) == "smooth-maxmin") {
+      End e{p.round, p.threshold, 1, {}};
+      for (int32_t t = 0; t < m.nt(); ++t) e.alpha.push_back(tet_alpha(m, t));
+      e.worst = *std::min_element(e.alpha.begin(), e.alpha.end());
+      ends.push_back(std::move(e));
+    }
+    return true;
+  };
+  ImproveReport r;
+  ASSERT_TRUE(improve(m, o, r).ok());
+  if (!ends.empty()) judge(ends.back(), ends.size() > 1 ? &ends[ends.size() - 2] : nullptr, NAN);
+  RecordProperty("checked", checked);
+  RecordProperty("refused", refused);
+  EXPECT_GT(refused, 0) << "no round at the bound met a set too large: nothing shown";
 }
