@@ -390,21 +390,7 @@ class Driver {
       if ((o_.allow_insert || o_.allow_remove) && (insert_live || insert_at > insert_tried_at + kInsertRise)) {
         insert_live = true;
         insert_tried_at = insert_at;
-        const auto t = Clock::now();
-        InsertOptions io;
-        io.quality_threshold = insert_at;
-        io.insert = o_.allow_insert;
-        io.remove = o_.allow_remove;
-        io.objective = o_.objective;
-        io.guard = guard_;
-        io.memo = &insert_memo_;
-        io.threads = threads_;
-        const InsertStats is = insert_pass(m_, io, sub_log_);
-        alpha_.clear();
-        r_.insertions += is.inserted;
-        r_.removals += is.removed;
-        r_.removed_vertices.insert(r_.removed_vertices.end(), is.removed_vertices.begin(), is.removed_vertices.end());
-        r_.seconds_topo += since(t);
+        const InsertStats is = insert_below(insert_at);
         if (!is.status) return is.status;
         // tried + skipped: a tet skipped as unchanged since its refusal in
         // an earlier call (InsertMemo) counts as the refusal it would have
@@ -698,23 +684,9 @@ class Driver {
                                 " in " + std::to_string(r_.seconds_polish) + " s");
     return mean;
   }
-  // The poor-tet polish (after the remesher): the paper's optimiser (not
-  // the mean polish's Laplacian step, nor the rounds' max-min) over the free
-  // vertices of the tets below gamma, minimising the sum of 1/alpha over
-  // each star with every tet weighted alike (Freitag & Ollivier-Gooch 1997's
-  // sum of inverses; the paper's eq. 3.4 with C = 0.5), under the guards
-  // with no measure exempt: no tet of a star may end worse than the mesh's
-  // worst on any measure, so every extreme stays, and a star's own worst may
-  // fall.  The rounds stop where the worst alpha can rise no further; their
-  // max-min moves leave the other poor tets of a star at the level of its
-  // worst (bib_0p25: a free vertex 1e-3 above a boundary sheet, pinned there
-  // by the tet on a needle boundary triangle at the bound, with nine tets
-  // below 0.2 around it).  Returns the moves made.
   // One insertion call (insert_pass: its passes, the rounds' memo) on the
-  // tets below `below`; the changes made.
-  int64_t insert_poor(double below) {
-    if (stopped() || !(o_.allow_insert || o_.allow_remove)) return 0;
-    refresh_guard();
+  // tets below `below`, counted in the report.
+  InsertStats insert_below(double below) {
     const auto t = Clock::now();
     InsertOptions io;
     io.quality_threshold = below;
@@ -730,8 +702,27 @@ class Driver {
     r_.removals += is.removed;
     r_.removed_vertices.insert(r_.removed_vertices.end(), is.removed_vertices.begin(), is.removed_vertices.end());
     r_.seconds_topo += since(t);
-    return is.inserted + is.removed;
+    return is;
   }
+  // The poor-tet insertion (improve(), at the bound): insert_below under
+  // the guards as the rounds left them.
+  InsertStats insert_poor(double below) {
+    if (stopped() || !(o_.allow_insert || o_.allow_remove)) return {};
+    refresh_guard();
+    return insert_below(below);
+  }
+  // The poor-tet polish (after the remesher): the paper's optimiser (not
+  // the mean polish's Laplacian step, nor the rounds' max-min) over the free
+  // vertices of the tets below gamma, minimising the sum of 1/alpha over
+  // each star with every tet weighted alike (Freitag & Ollivier-Gooch 1997's
+  // sum of inverses; the paper's eq. 3.4 with C = 0.5), under the guards
+  // with no measure exempt: no tet of a star may end worse than the mesh's
+  // worst on any measure, so every extreme stays, and a star's own worst may
+  // fall.  The rounds stop where the worst alpha can rise no further; their
+  // max-min moves leave the other poor tets of a star at the level of its
+  // worst (bib_0p25: a free vertex 1e-3 above a boundary sheet, pinned there
+  // by the tet on a needle boundary triangle at the bound, with nine tets
+  // below 0.2 around it).  Returns the moves made.
   int64_t polish_poor(double gamma) {
     if (stopped() || !guard_) return 0;
     refresh_guard();
@@ -1035,8 +1026,11 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
       // 26 -> 21, 23 -> 20, and in one of 18 boxes 29 -> 30; every other
       // bench mesh byte-identical (docs/benchmarks.md, twenty-fifth session).
       if (run_status && !d.stopped() && d.worst_at_bound(d.score().first)) {
-        const int64_t ops = d.insert_poor(kPoorBelow);
-        if (log) log(LogLevel::Debug, "poor-tet insertion: " + std::to_string(ops) + " changes");
+        const InsertStats is = d.insert_poor(kPoorBelow);
+        if (!is.status) run_status = is.status;
+        if (log)
+          log(LogLevel::Debug, "poor-tet insertion: " + std::to_string(is.inserted) + " inserted, " +
+                                   std::to_string(is.removed) + " removed");
       }
       if (run_status && !d.stopped()) {
         ensure_vertex_tets(m, opt.threads);

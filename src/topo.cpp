@@ -192,14 +192,18 @@ struct FaceSlot {
   int32_t k[3];
   int32_t nt, ot;
 };
-constexpr int kFaceTable = 2048;  // a power of two >= 3 (4 kMaxNew) + 2 kMaxOuter
+constexpr int kFaceTable = 2048;  // the largest table: a power of two >= 3 (4 kMaxNew) + 2 kMaxOuter
 static_assert(kFaceTable >= 3 * 4 * kMaxNew + 2 * kMaxOuter);
 
 bool pair_hashed(TopoEditor::Candidate& c, const int32_t (*fkey)[3], const int32_t (*frev)[3]) {
   const int nn = 4 * c.n_new, no = c.n_outer;
   int size = 16;
   while (size < 3 * nn + 2 * no) size *= 2;  // the lookups of reversed keys add up to nn entries
-  FaceSlot table[kFaceTable];
+  // On the heap, once per thread: a 40 KiB frame would grow the stack
+  // where an address-space limit may refuse it (tests/scripts/test_oom.sh:
+  // out of memory must be a message, and stack growth cannot throw).
+  thread_local std::vector<FaceSlot> table;
+  if (table.size() < static_cast<size_t>(size)) table.resize(kFaceTable);
   for (int i = 0; i < size; ++i) table[i].nt = table[i].ot = -2;  // -2: empty slot
   auto slot = [&](const int32_t* k) -> FaceSlot& {
     uint32_t h = static_cast<uint32_t>(k[0]) * 0x9E3779B1u ^ static_cast<uint32_t>(k[1]) * 0x85EBCA77u ^
