@@ -930,7 +930,6 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
     }
   }
   bool used[kMaxOuter] = {};
-  for (int i = 0; i < 4 * c.n_new; ++i) c.link[i] = std::numeric_limits<int32_t>::min();
   // Every new face's canonical triple and that of its reverse, computed once
   // (the pairing below compares each face with all later ones).
   int32_t fkey[4 * kMaxNew][3], frev[4 * kMaxNew][3];
@@ -966,8 +965,7 @@ TopoResult TopoEditor::finish_plan(bool strict, Candidate& c) const {
         if (c.link[4 * i + f] >= 4 * (i + 1) && listed_inside(fkey[4 * i + f])) return TopoResult::BoundaryLocked;
     return TopoResult::Applied;
   }
-  if (c.n_new >= kFastPairing)
-    for (int i = 0; i < 4 * c.n_new; ++i) c.link[i] = std::numeric_limits<int32_t>::min();
+  for (int i = 0; i < 4 * c.n_new; ++i) c.link[i] = std::numeric_limits<int32_t>::min();
   for (int i = 0; i < c.n_new; ++i)
     for (int f = 0; f < 4; ++f) {
       if (c.link[4 * i + f] != std::numeric_limits<int32_t>::min()) continue;
