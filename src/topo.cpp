@@ -1220,22 +1220,31 @@ void TopoEditor::search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>*
   // Worst alpha of the fan at p; stops early (returning a value <= stop) once
   // it cannot beat stop.  The face that failed last is tried first next time.
   int lead = 0;
-  // With the alpha objective the fan runs on ConeFace copies of the outer
-  // faces (cone_alpha, the same numbers as quality()), refreshed by each
-  // evaluate().
+  // With the alpha objective the fan runs on a ConeFan copy of the outer
+  // faces (cone_alpha4, the same numbers as quality()), refreshed by each
+  // evaluate(), four faces at a time, so an early
+  // stop comes after a whole block and lead is then a block: the value
+  // returned at or below stop may differ, never one above it (the minimum
+  // over all faces), and compass() compares it with stop only.
   const bool fast = o_.objective == Objective::Alpha;
-  detail::ConeFace cone[kInsertMax];
+  static_assert(kInsertMax % 4 == 0, "ConeFan holds whole blocks");
+  detail::ConeFan<kInsertMax> cone;
   auto fan = [&](const double* p, double stop = -kInf) {
     double w = kInf;
+    if (fast) {
+      const int nb = (nf + 3) / 4;
+      for (int k = 0; k < nb && w > stop; ++k) {
+        const int b = (k + lead) % nb;
+        double q[4];
+        detail::cone_alpha4(cone, 4 * b, p, q);
+        for (const double x : q) w = std::min(w, x < o_.alpha_floor ? -kInf : x);
+        if (w <= stop) lead = b;
+      }
+      return w;
+    }
     for (int k = 0; k < nf && w > stop; ++k) {
       const int i = (k + lead) % nf;
-      double q;
-      if (fast) {
-        q = detail::cone_alpha(cone[i], p);
-        if (q < o_.alpha_floor) q = -kInf;
-      } else {
-        q = quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p);
-      }
+      const double q = quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), p);
       if (q < w) {
         w = q;
         if (w <= stop) lead = i;
@@ -1290,8 +1299,10 @@ void TopoEditor::search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>*
         if (!on) return false;
       }
     for (double& y : centre) y /= ncentre;
-    if (fast)
-      for (int i = 0; i < nf; ++i) detail::make_cone_face(m_.point(face[i][0]), m_.point(face[i][1]), m_.point(face[i][2]), cone[i]);
+    if (fast) {
+      for (int i = 0; i < nf; ++i) cone.set(i, m_.point(face[i][0]), m_.point(face[i][1]), m_.point(face[i][2]));
+      cone.pad(nf);
+    }
     // Compass search from the best of: the previous position, the centre of
     // t, the centre of the cavity's outer vertices.
     double tc[3] = {0, 0, 0};

@@ -1030,7 +1030,7 @@ TEST(Remesh, RefineSearchesMadeAheadGiveTheSerialResultBitForBit) {
 TEST(Remesh, ConeAlphaIsAlphaBitForBit) {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-1, 1);
-  int64_t positive = 0, checked = 0;
+  int64_t positive = 0, zero = 0, checked = 0;
   for (int trial = 0; trial < 20000; ++trial) {
     double A[3], B[3], C[3], p[3];
     for (int k = 0; k < 3; ++k) { A[k] = u(rng); B[k] = u(rng); C[k] = u(rng); p[k] = u(rng); }
@@ -1040,15 +1040,40 @@ TEST(Remesh, ConeAlphaIsAlphaBitForBit) {
       for (int k = 0; k < 3; ++k) C[k] = B[k] + 1e-7 * u(rng);
     if (trial % 4 == 3)  // far apex, large offset coordinates
       for (int k = 0; k < 3; ++k) { A[k] += 1e4; B[k] += 1e4; C[k] += 1e4; p[k] = 1e4 + 50 * u(rng); }
+    if (trial % 97 == 5)  // a degenerate face (A = B): alpha 0 by its zero-area branch
+      for (int k = 0; k < 3; ++k) B[k] = A[k];
     detail::ConeFace f;
     detail::make_cone_face(A, B, C, f);
     const double want = alpha(A, C, B, p), got = detail::cone_alpha(f, p);
     EXPECT_EQ(std::memcmp(&want, &got, sizeof want), 0) << "trial " << trial << ": " << want << " vs " << got;
+    // The four-lane form the search runs on (cone_alpha4, SIMD): the same
+    // bits in every lane, here as face trial % 7 of a fan of 7 faces whose
+    // other faces are random and whose eighth lane is padding.
+    detail::ConeFan<8> fan;
+    const int at = trial % 7, lane = at % 4, block = at / 4;
+    for (int i = 0; i < 7; ++i) {
+      double X[3], Y[3], Z[3];
+      for (int k = 0; k < 3; ++k) { X[k] = u(rng); Y[k] = u(rng); Z[k] = u(rng); }
+      if (i == at) fan.set(i, A, B, C);
+      else fan.set(i, X, Y, Z);
+    }
+    fan.pad(7);
+    double q[4];
+    detail::cone_alpha4(fan, 4 * block, p, q);
+    EXPECT_EQ(std::memcmp(&want, &q[lane], sizeof want), 0) << "trial " << trial << ": " << want << " vs " << q[lane];
+    if (trial % 2) {  // lane 3 of block 1 is the padding: a copy of face 0
+      double pad[4], first[4];
+      detail::cone_alpha4(fan, 0, p, first);
+      detail::cone_alpha4(fan, 4, p, pad);
+      EXPECT_EQ(std::memcmp(&first[0], &pad[3], sizeof pad[3]), 0);
+    }
     positive += want > 0;
+    zero += want == 0;
     ++checked;
   }
   EXPECT_GT(positive, checked / 4);  // both orientations and degenerate cases were met
   EXPECT_LT(positive, checked);
+  EXPECT_GT(zero, 0);
 }
 
 // Guard::slack is the margin admits() decides by: not negative exactly
