@@ -1535,13 +1535,19 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   d.tet_class.assign(static_cast<size_t>(nt), static_cast<uint8_t>(TetClass::Good));
   std::unordered_map<int32_t, SideBound> face_best;  // canonical packed face -> best alpha
   std::vector<int32_t> searched_sides;                 // keys of face_best that side_best filled
-  std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash> shape_best;  // similar triangles
+  std::unordered_map<std::pair<int64_t, int64_t>, int32_t, PairHash> shape_best;  // similar triangles: their job
   // The poor tets, found over parallel blocks (in index order).
   const std::vector<int32_t> poor = detail::parallel_select(
       nt, opt.threads, [&](int64_t t) { return tet_alpha(m, static_cast<int32_t>(t)) < opt.threshold; });
-  // Their measures in parallel; the triangle searches (shared caches) below.
+  // Their measures, their constrained faces' keys and the two-face wedge
+  // bounds in parallel (each a function of the mesh alone).
   std::vector<PoorTet> info(poor.size());
-  detail::parallel_for_each(static_cast<int64_t>(poor.size()), opt.threads, [&](int64_t i) {
+  struct FaceKey {
+    int32_t key = -1;       // face_best's key; -1: face not constrained
+    bool searched = false;  // wedged or thin: side_best on this side
+  };
+  std::vector<std::array<FaceKey, 4>> keys(poor.size());
+  auto examine = [&](int64_t i) {
     const int32_t t = poor[i];
     const int32_t* v = m.tet(t);
     const double *a = m.point(v[0]), *b = m.point(v[1]), *c = m.point(v[2]), *e = m.point(v[3]);
@@ -1551,14 +1557,9 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     p.kind = m.tet_kind.empty() ? 0 : m.tet_kind[t];
     dihedral_extremes(a, b, c, e, p.dihedral_min, p.dihedral_max);
     for (int k = 0; k < 3; ++k) p.centroid[k] = (a[k] + b[k] + c[k] + e[k]) / 4;
-  });
-  d.poor.reserve(poor.size());
-  for (PoorTet& p : info) {
-    const int32_t t = p.tet;
     const uint8_t mask = m.face_mask.empty() ? 0 : m.face_mask[t];
     for (int f = 0; f < 4; ++f) {
       if (!(mask & (1u << f))) continue;
-      p.constrained_faces++;
       const int32_t packed = 4 * t + f;
       const int32_t nb = m.adj[static_cast<size_t>(packed)];
       const double* ws[3];
@@ -1566,34 +1567,113 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
       const bool thin = side_thin(m, packed, opt.walls);
       // The face's own bound is the same on both sides; a side's wedges and
       // walls are its own, so a wedged or thin face is keyed by this side.
-      const int32_t key = nb >= 0 && !wedge && !thin ? std::min(packed, nb) : packed;
-      auto it = face_best.find(key);
-      SideBound sb;
-      if (it != face_best.end()) {
-        sb = it->second;
-      } else {
-        const double* fp[3];
-        face_points(m, packed, fp);
-        if (wedge || thin) {  // inside the wedges of its sharp edges (face_wedges), clear of the walls (side_walls)
-          sb.alpha = side_best(m, packed, nullptr, &sb, opt.walls);
-          d.faces_searched++;
-          searched_sides.push_back(packed);
-        } else if (cheap_apex_value(fp[0], fp[1], fp[2]) >= opt.threshold) {
-          sb.alpha = NAN;  // an apex reaching the threshold exists: not a lock
-        } else {
-          std::pair<int64_t, int64_t> shape;
-          const bool keyed = shape_key(Frame(fp[0], fp[1], fp[2]), shape);
-          auto sit = keyed ? shape_best.find(shape) : shape_best.end();
-          if (sit != shape_best.end()) {
-            sb.alpha = sit->second;
-          } else {
-            sb.alpha = best_apex(fp[0], fp[1], fp[2]).value;
-            d.faces_searched++;
-            if (keyed) shape_best.emplace(shape, sb.alpha);
+      keys[i][f] = {nb >= 0 && !wedge && !thin ? std::min(packed, nb) : packed, wedge || thin};
+    }
+    // Two faces of t on the domain boundary (no tet beyond either): t is the
+    // only tet at their common edge, so near it the domain is t's wedge and
+    // the tet any mesh puts on either face has its apex inside that wedge
+    // (issue 27: a pair of constrained faces provably forces this).
+    if (!m.adj.empty())
+      for (int f1 = 0; f1 < 4; ++f1)
+        for (int f2 = 0; f2 < 4; ++f2) {
+          if (f1 == f2 || !(mask & (1u << f1)) || !(mask & (1u << f2))) continue;
+          if (m.adj[4 * static_cast<size_t>(t) + f1] >= 0 || m.adj[4 * static_cast<size_t>(t) + f2] >= 0) continue;
+          // Face f1 = (p, q, r) where r = vertex f2 is off the shared edge
+          // and s = vertex f1 is face f2's own.
+          int pq[2], n = 0;
+          for (int k = 0; k < 4; ++k)
+            if (k != f1 && k != f2) pq[n++] = k;
+          const double w = wedge_best_alpha(m.point(v[pq[0]]), m.point(v[pq[1]]), m.point(v[f2]), m.point(v[f1]));
+          if (std::isnan(p.wedge_alpha) || w < p.wedge_alpha) {
+            p.wedge_alpha = w;
+            p.wedge_face = f1;
+            p.wedge_deg = edge_dihedral_deg(m.point(v[pq[0]]), m.point(v[pq[1]]), m.point(v[f2]), m.point(v[f1]));
           }
         }
-        face_best.emplace(key, sb);
-      }
+  };
+  // Ranges of 16 tets, not kBlock: a wedge search costs milliseconds, and
+  // a few thousand poor tets would otherwise be one block on one thread.
+  detail::parallel_ranges(static_cast<int64_t>(poor.size()), 16, opt.threads, [&](int64_t i0, int64_t i1) {
+    for (int64_t i = i0; i < i1; ++i) examine(i);
+  });
+  // Each key's bound, searched once: the keys in the order the poor tets
+  // first meet them (so searched_sides and faces_searched are as a serial
+  // pass over the tets makes them), the searches in parallel.  A face that
+  // is neither wedged nor thin gets the triangle's own bound, searched once
+  // per shape (shape_best) unless its closed-form apexes already reach the
+  // threshold (then NaN: not a lock).  The searches were 47% of an insertion
+  // run on hinge_raw with the summary (and 9 tenths of a default one) when
+  // they ran one after the other.
+  struct Job {
+    int32_t key, packed;
+    bool searched;
+    SideBound sb;
+    double cheap = 0;
+    bool keyed = false;
+    std::pair<int64_t, int64_t> shape{0, 0};
+  };
+  std::vector<Job> jobs;
+  {
+    std::unordered_map<int32_t, int32_t> seen;
+    for (size_t i = 0; i < poor.size(); ++i)
+      for (int f = 0; f < 4; ++f)
+        if (const FaceKey& k = keys[i][f]; k.key >= 0 && seen.emplace(k.key, static_cast<int32_t>(jobs.size())).second)
+          jobs.push_back({k.key, 4 * poor[i] + f, k.searched, {}});
+  }
+  detail::parallel_items(static_cast<int64_t>(jobs.size()), opt.threads, [&](int64_t j) {  // one task each
+    Job& jb = jobs[j];
+    if (jb.searched) {  // inside the wedges of its sharp edges (face_wedges), clear of the walls (side_walls)
+      jb.sb.alpha = side_best(m, jb.packed, nullptr, &jb.sb, opt.walls);
+      return;
+    }
+    const double* fp[3];
+    face_points(m, jb.packed, fp);
+    jb.cheap = cheap_apex_value(fp[0], fp[1], fp[2]);
+    if (jb.cheap >= opt.threshold) {
+      jb.sb.alpha = NAN;  // an apex reaching the threshold exists: not a lock
+      return;
+    }
+    jb.keyed = shape_key(Frame(fp[0], fp[1], fp[2]), jb.shape);
+  });
+  // One search per shape (the first job of each), the others take its value.
+  std::vector<int32_t> shape_job(jobs.size(), -1);  // job whose search a job takes
+  std::vector<int32_t> to_search;
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    const Job& jb = jobs[j];
+    if (jb.searched) {
+      d.faces_searched++;
+      searched_sides.push_back(jb.packed);
+      continue;
+    }
+    if (jb.cheap >= opt.threshold) continue;
+    if (jb.keyed) {
+      const auto [it, fresh] = shape_best.emplace(jb.shape, static_cast<int32_t>(j));
+      shape_job[j] = it->second;
+      if (!fresh) continue;
+    } else {
+      shape_job[j] = static_cast<int32_t>(j);
+    }
+    d.faces_searched++;
+    to_search.push_back(static_cast<int32_t>(j));
+  }
+  detail::parallel_items(static_cast<int64_t>(to_search.size()), opt.threads, [&](int64_t k) {
+    Job& jb = jobs[to_search[k]];
+    const double* fp[3];
+    face_points(m, jb.packed, fp);
+    jb.sb.alpha = best_apex(fp[0], fp[1], fp[2]).value;
+  });
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    if (shape_job[j] >= 0) jobs[j].sb.alpha = jobs[shape_job[j]].sb.alpha;
+    face_best.emplace(jobs[j].key, jobs[j].sb);
+  }
+  d.poor.reserve(poor.size());
+  for (size_t i = 0; i < poor.size(); ++i) {
+    PoorTet& p = info[i];
+    const int32_t t = p.tet;
+    for (int f = 0; f < 4; ++f) {
+      if (keys[i][f].key < 0) continue;
+      p.constrained_faces++;
+      const SideBound& sb = face_best.at(keys[i][f].key);
       const double best = sb.alpha;
       if (!std::isnan(best) && (std::isnan(p.best_alpha) || best < p.best_alpha)) {
         p.best_alpha = best;
@@ -1604,28 +1684,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         p.vertex_alpha = sb.vertex_alpha;
       }
     }
-    // Two faces of t on the domain boundary (no tet beyond either): t is the
-    // only tet at their common edge, so near it the domain is t's wedge and
-    // the tet any mesh puts on either face has its apex inside that wedge
-    // (issue 27: a pair of constrained faces provably forces this).
     if (!m.adj.empty()) {
-      const int32_t* tv = m.tet(t);
-      for (int f1 = 0; f1 < 4; ++f1)
-        for (int f2 = 0; f2 < 4; ++f2) {
-          if (f1 == f2 || !(mask & (1u << f1)) || !(mask & (1u << f2))) continue;
-          if (m.adj[4 * static_cast<size_t>(t) + f1] >= 0 || m.adj[4 * static_cast<size_t>(t) + f2] >= 0) continue;
-          // Face f1 = (p, q, r) where r = vertex f2 is off the shared edge
-          // and s = vertex f1 is face f2's own.
-          int pq[2], n = 0;
-          for (int k = 0; k < 4; ++k)
-            if (k != f1 && k != f2) pq[n++] = k;
-          const double w = wedge_best_alpha(m.point(tv[pq[0]]), m.point(tv[pq[1]]), m.point(tv[f2]), m.point(tv[f1]));
-          if (std::isnan(p.wedge_alpha) || w < p.wedge_alpha) {
-            p.wedge_alpha = w;
-            p.wedge_face = f1;
-            p.wedge_deg = edge_dihedral_deg(m.point(tv[pq[0]]), m.point(tv[pq[1]]), m.point(tv[f2]), m.point(tv[f1]));
-          }
-        }
       if (!std::isnan(p.wedge_alpha) && (std::isnan(p.best_alpha) || p.wedge_alpha <= p.best_alpha + 1e-9)) {
         p.best_alpha = std::min(p.best_alpha, p.wedge_alpha);
         p.face = p.wedge_face;

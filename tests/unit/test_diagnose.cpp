@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "tetopt/diagnose.hpp"
@@ -883,3 +884,54 @@ TEST(Diagnose, ImproveRunsNoRoundsAgainWhereAWalledSideCapsTheWorst) {
   EXPECT_GE(cap + 1e-6, dg.vertex_bound);
 }
 
+
+// The diagnosis runs its searches in parallel (one task per side, ranges
+// of 16 poor tets); what it says must not depend on the thread count, bit
+// for bit: the same classes, bounds, faces and counts as one thread gives.
+// A thin slab (walled sides), a needle box (triangle shapes shared by many
+// faces) and a raw box whose tets all have boundary faces.
+TEST(Diagnose, SameForEveryThreadCount) {
+  std::vector<TetMesh> meshes;
+  meshes.push_back(thin_slab(6, 0.15));
+  int moved = 0;
+  meshes.push_back(tetopt_test::needle_box(8, 2, 5, &moved));
+  for (TetMesh& m : meshes) ASSERT_TRUE(build_topology(m).ok());
+  auto same = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  int64_t searched = 0, walled = 0;
+  for (const TetMesh& m : meshes) {
+    for (const bool walls : {true, false}) {
+      DiagnoseOptions o;
+      o.threshold = 0.3;
+      o.walls = walls;
+      o.threads = 1;
+      const Diagnosis d1 = diagnose(m, o);
+      o.threads = 4;
+      const Diagnosis d4 = diagnose(m, o);
+      ASSERT_EQ(d1.poor.size(), d4.poor.size());
+      EXPECT_EQ(d1.faces_searched, d4.faces_searched);
+      for (int k = 0; k < 4; ++k) EXPECT_EQ(d1.count[k], d4.count[k]);
+      EXPECT_TRUE(same(d1.bound.alpha, d4.bound.alpha));
+      EXPECT_TRUE(same(d1.vertex_bound, d4.vertex_bound));
+      for (size_t i = 0; i < d1.poor.size(); ++i) {
+        const PoorTet &a = d1.poor[i], &b = d4.poor[i];
+        SCOPED_TRACE(a.tet);
+        EXPECT_EQ(a.tet, b.tet);
+        EXPECT_EQ(a.cls, b.cls);
+        EXPECT_EQ(a.face, b.face);
+        EXPECT_EQ(a.constrained_faces, b.constrained_faces);
+        EXPECT_EQ(a.wedged, b.wedged);
+        EXPECT_EQ(a.walled, b.walled);
+        EXPECT_EQ(a.wedge_face, b.wedge_face);
+        EXPECT_TRUE(same(a.best_alpha, b.best_alpha));
+        EXPECT_TRUE(same(a.wedge_alpha, b.wedge_alpha));
+        EXPECT_TRUE(same(a.wall_d, b.wall_d));
+        EXPECT_TRUE(same(a.vertex_alpha, b.vertex_alpha));
+        walled += a.walled;
+      }
+      EXPECT_EQ(format_diagnosis(d1), format_diagnosis(d4));
+      searched += d1.faces_searched;
+    }
+  }
+  EXPECT_GT(searched, 32) << "few searches: the parallel path went untested";
+  EXPECT_GT(walled, 0) << "no walled side was met";
+}
