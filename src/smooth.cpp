@@ -186,6 +186,12 @@ struct Scratch {
   std::vector<LocalTet> tets;
   std::vector<double> alpha, grad;  // MaxMin: per-tet alpha and gradient (3 each)
   std::vector<double> star_alpha;   // alphas of the star at the last candidate checked
+  // The star's fixed parts as a structure of arrays (Alpha only), kSoa
+  // arrays of `stride` (n rounded up to 4; the padding copies tet 0) for
+  // star_errors4: ax ay az bx by bz cx cy cz n0len lfix2.
+  static constexpr int kSoa = 11;
+  std::vector<double> soa;
+  int stride = 0;
   double origin[3] = {0, 0, 0};
   double mean_len = 0;
   int n = 0;
@@ -207,10 +213,74 @@ void gather(const TetMesh& m, int32_t v, double C, Scratch& s) {
     len += norm(L.a) + norm(L.b) + norm(L.c);
   }
   s.mean_len = n ? len / (3.0 * n) : 0.0;
+  s.stride = 0;
+  if (s.obj != Objective::Alpha || n == 0) return;
+  s.stride = (n + 3) / 4 * 4;
+  if (s.soa.size() < static_cast<size_t>(Scratch::kSoa * s.stride)) s.soa.resize(Scratch::kSoa * s.stride);
+  double* a = s.soa.data();
+  const int st = s.stride;
+  for (int i = 0; i < st; ++i) {
+    const LocalTet& L = s.tets[i < n ? i : 0];
+    for (int k = 0; k < 3; ++k) {
+      a[k * st + i] = L.a[k];
+      a[(3 + k) * st + i] = L.b[k];
+      a[(6 + k) * st + i] = L.c[k];
+    }
+    a[9 * st + i] = L.n0len;
+    a[10 * st + i] = L.lfix2;
+  }
+}
+
+// local_error(s.tets[i], x, nullptr) for i = i0 .. i0 + 3 (Alpha, from the
+// structure of arrays), lane by lane its operations in its order, so each
+// lane has its bits; in a form GCC vectorises (the line searches' star_f
+// calls are most of a smoothing pass).
+inline void star_errors4(const Scratch& s, int i0, const double* x, double* out) {
+  const double* a = s.soa.data();
+  const int st = s.stride;
+  const double x0 = x[0], x1 = x[1], x2 = x[2];
+  double den[4];
+  for (int l = 0; l < 4; ++l) {
+    const int i = i0 + l;
+    const double u0 = a[i] - x0, u1 = a[st + i] - x1, u2 = a[2 * st + i] - x2;
+    const double w0 = a[3 * st + i] - x0, w1 = a[4 * st + i] - x1, w2 = a[5 * st + i] - x2;
+    const double z0 = a[6 * st + i] - x0, z1 = a[7 * st + i] - x1, z2 = a[8 * st + i] - x2;
+    // n1 = u x w, n2 = w x z, n3 = z x u (detail::cross).
+    const double n10 = u1 * w2 - u2 * w1, n11 = u2 * w0 - u0 * w2, n12 = u0 * w1 - u1 * w0;
+    const double n20 = w1 * z2 - w2 * z1, n21 = w2 * z0 - w0 * z2, n22 = w0 * z1 - w1 * z0;
+    const double n30 = z1 * u2 - z2 * u1, n31 = z2 * u0 - z0 * u2, n32 = z0 * u1 - z1 * u0;
+    const double D = u0 * n20 + u1 * n21 + u2 * n22;
+    const double s1 = std::sqrt(n10 * n10 + n11 * n11 + n12 * n12);
+    const double s2 = std::sqrt(n20 * n20 + n21 * n21 + n22 * n22);
+    const double s3 = std::sqrt(n30 * n30 + n31 * n31 + n32 * n32);
+    const double A2 = a[9 * st + i] + s1 + s2 + s3;
+    const double lu = u0 * u0 + u1 * u1 + u2 * u2, lw = w0 * w0 + w1 * w1 + w2 * w2,
+                 lz = z0 * z0 + z1 * z1 + z2 * z2;
+    double L2 = a[10 * st + i];
+    L2 = lu > L2 ? lu : L2;
+    L2 = lw > L2 ? lw : L2;
+    L2 = lz > L2 ? lz : L2;
+    out[l] = A2 * std::sqrt(L2) / (kTwoSqrt6 * D);
+    den[l] = D;
+  }
+  // Apart, so that GCC computes every lane's quotient (in the loop above it
+  // sank the division under the test and gave up on vectorising it).
+  for (int l = 0; l < 4; ++l) out[l] = den[l] > 0 ? out[l] : kInf;
 }
 
 double star_f(const Scratch& s, const double* x) {
   double f = 0;
+  if (s.stride > 0) {  // Alpha: four tets at a time, summed in order as below
+    double e[4];
+    for (int i0 = 0; i0 < s.n; i0 += 4) {
+      star_errors4(s, i0, x, e);
+      for (int l = 0; l < 4 && i0 + l < s.n; ++l) {
+        if (e[l] == kInf) return kInf;
+        f += s.tets[i0 + l].w * e[l];
+      }
+    }
+    return f;
+  }
   for (int i = 0; i < s.n; ++i) {
     const LocalTet& T = s.tets[i];
     const double e = local_error(T, x, nullptr);
