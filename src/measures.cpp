@@ -11,6 +11,7 @@
 
 #include "detail/parallel.hpp"
 #include "detail/sum.hpp"
+#include "detail/tet_kernels.hpp"
 #include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
 #include "tetopt/mesh.hpp"
@@ -164,6 +165,38 @@ struct InteriorFace {
   return r;
 }
 }  // namespace
+
+namespace detail {
+TetMeasureValues tet_measure_values(const double* a, const double* b, const double* c, const double* d) {
+  // tet_pieces with the squared edge lengths kept: the lengths are their
+  // square roots (norm() is sqrt(dot)), their max and sum in edge order are
+  // edge_lengths2's, and the area sum adds 0.5 |n_f| in face order as
+  // face_area_sum does from the same normals.
+  TetPieces t;
+  t.p[0] = a; t.p[1] = b; t.p[2] = c; t.p[3] = d;
+  t.vol = tet_signed_volume(a, b, c, d);
+  face_normals(t.p, t.n, t.nl);
+  double l2max = 0, l2sum = 0;
+  for (int e = 0; e < 6; ++e) {
+    double u[3];
+    sub(t.p[kEdgeVertex[e][1]], t.p[kEdgeVertex[e][0]], u);
+    const double l2 = dot(u, u);
+    l2max = std::max(l2max, l2);
+    l2sum += l2;
+    t.l[e] = std::sqrt(l2);
+  }
+  double area = 0;
+  for (int f = 0; f < 4; ++f) area += 0.5 * t.nl[f];
+  TetMeasureValues r;
+  r.alpha = alpha_from(t.vol, area, l2max);
+  r.mean_ratio = mean_ratio_from(t.vol, l2sum);
+  r.scaled_jacobian = scaled_jacobian_from(t.p, t.l);
+  r.sine_min = sine_min_from(t);
+  r.radius_ratio = radius_ratio_from(t.p, t.vol, area);
+  r.equivolume_skewness = equivolume_skewness_from(t.p, t.vol);
+  return r;
+}
+}  // namespace detail
 
 double sine_min(const double* a, const double* b, const double* c, const double* d) {
   TetPieces t;

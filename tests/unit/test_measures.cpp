@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "detail/tet_kernels.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/measures.hpp"
@@ -493,4 +494,53 @@ TEST(Measures, CliQualityJsonHasTheNewKeys) {
   const std::string pyfile = dir + "/measures_cli.py";
   std::ofstream(pyfile) << py;
   EXPECT_EQ(std::system(("/usr/bin/python3 " + pyfile + " " + js).c_str()), 0);
+}
+
+// The guards evaluate six measures at once from shared pieces
+// (detail::tet_measure_values); every value must be its standalone
+// function's bit for bit, or a tet rebuilt unchanged could be refused.
+// Random, sliver, needle, cap, flat, repeated-point, inverted and
+// tiny/huge tets.
+TEST(Measures, TetMeasureValuesAreTheStandaloneOnes) {
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto bits = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  int positive = 0, degenerate = 0;
+  for (int k = 0; k < 40000; ++k) {
+    double p[4][3];
+    for (auto& q : p)
+      for (double& x : q) x = u(rng);
+    const int shape = k % 8;
+    const double eps = std::pow(10.0, -1.0 - static_cast<double>(k % 13));
+    if (shape == 1) {
+      for (int j = 0; j < 3; ++j) p[3][j] = 0.5 * (p[0][j] + p[1][j]) + 0.3 * (p[2][j] - p[0][j]);
+      p[3][2] += eps;
+    } else if (shape == 2) {
+      for (int j = 0; j < 3; ++j) p[1][j] = p[0][j] + eps * u(rng);
+    } else if (shape == 3) {
+      for (int j = 0; j < 3; ++j) p[3][j] = (p[0][j] + p[1][j] + p[2][j]) / 3;
+      p[3][0] += eps;
+    } else if (shape == 4) {
+      for (auto& q : p) q[2] = 0.25;
+    } else if (shape == 5) {
+      for (int j = 0; j < 3; ++j) p[2][j] = p[1][j];
+    } else if (shape == 6) {
+      const double scale = (k % 16 < 8) ? 1e-100 : 1e100;
+      for (auto& q : p)
+        for (double& x : q) x *= scale;
+    }
+    const double *a = p[0], *b = p[1], *c = p[2], *d = p[3];
+    const detail::TetMeasureValues v = detail::tet_measure_values(a, b, c, d);
+    SCOPED_TRACE(k);
+    EXPECT_TRUE(bits(v.alpha, alpha(a, b, c, d)));
+    EXPECT_TRUE(bits(v.mean_ratio, mean_ratio(a, b, c, d)));
+    EXPECT_TRUE(bits(v.scaled_jacobian, scaled_jacobian(a, b, c, d)));
+    EXPECT_TRUE(bits(v.sine_min, sine_min(a, b, c, d)));
+    EXPECT_TRUE(bits(v.radius_ratio, radius_ratio(a, b, c, d)));
+    EXPECT_TRUE(bits(v.equivolume_skewness, equivolume_skewness(a, b, c, d)));
+    positive += v.alpha > 0;
+    degenerate += v.alpha == 0;
+  }
+  EXPECT_GT(positive, 10000);  // both orientations and degenerate tets were met
+  EXPECT_GT(degenerate, 1000);
 }
