@@ -29,6 +29,7 @@
 #include "detail/cone.hpp"
 #include "detail/edge_key.hpp"
 #include "detail/parallel.hpp"
+#include "detail/shell_alpha.hpp"
 #include "detail/vec3.hpp"
 
 #ifdef TETOPT_HAVE_TBB
@@ -658,6 +659,13 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
   double floor = bound;
   if ((strict || o_.must_improve) && !judged_) floor = std::max(floor, c.old_min + o_.margin);
   for (int i = 0; i + 1 < n; ++i) q[i][i + 1] = kInf;
+  // With alpha as the measure, the tets' alpha from memoised pieces (ShellAlpha):
+  // the same bits as quality(), a triangle's own area once for its two
+  // tets and each ring edge's lengths and side areas once for the polygon.
+  const bool memo = o_.measure == TopoMeasure::Alpha &&
+                    (o_.objective == Objective::Alpha || o_.objective == Objective::OpenFoam);
+  detail::ShellAlpha sa;
+  if (memo) sa.reset(n, ring, pa, pb, m_);
   for (int len = 2; len < n; ++len)
     for (int i = 0; i + len < n; ++i) {
       const int j = i + len;
@@ -669,9 +677,17 @@ TopoResult TopoEditor::plan_edge(int32_t t, int le, int want_n, bool strict, Can
         const double* pi = m_.point(ring[i]);
         const double* pk = m_.point(ring[k]);
         const double* pj = m_.point(ring[j]);
-        v = std::min(v, quality(pi, pk, pj, pb));
-        if (v <= best) continue;
-        v = std::min(v, quality(pi, pj, pk, pa));
+        if (memo) {
+          const double top = sa.top(i, k, j);
+          v = std::min(v, top < o_.alpha_floor ? -kInf : top);
+          if (v <= best) continue;
+          const double bottom = sa.bottom(i, k, j);
+          v = std::min(v, bottom < o_.alpha_floor ? -kInf : bottom);
+        } else {
+          v = std::min(v, quality(pi, pk, pj, pb));
+          if (v <= best) continue;
+          v = std::min(v, quality(pi, pj, pk, pa));
+        }
         if (v > best) {
           best = v;
           bk = k;

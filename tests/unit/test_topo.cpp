@@ -10,9 +10,11 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <random>
 #include <set>
 #include <vector>
 
+#include "detail/shell_alpha.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/improve.hpp"
 #include "tetopt/invariants.hpp"
@@ -1102,4 +1104,45 @@ TEST(Improve, DihedralPassAddsNoPoorTetsBesideNeedleBoundaryTriangles) {
     if (!m.vert_constrained[v]) continue;
     for (int k = 0; k < 3; ++k) EXPECT_EQ(m.point(v)[k], s.xyz[3 * static_cast<size_t>(v) + k]) << v;
   }
+}
+
+// plan_edge's DP takes its tets' alpha from memoised pieces
+// (detail::ShellAlpha); each must be alpha() of the same tet bit for bit,
+// or the DP would pick triangulations by numbers the rest of the engine
+// does not see.  Rings of 3 to 16 points around an edge (a, b), jittered,
+// some near-flat, every triangle (i, k, j) of each, top and bottom.
+TEST(Topo, ShellAlphaIsAlphaBitForBit) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int64_t checked = 0, positive = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = 3 + trial % 14;
+    TetMesh m;
+    const double flat = trial % 3 == 0 ? 1e-7 : 0.3;
+    for (int s = 0; s < n; ++s) {
+      const double th = 2 * M_PI * s / n + 0.2 * u(rng);
+      m.xyz.insert(m.xyz.end(), {std::cos(th) + 0.1 * u(rng), std::sin(th) + 0.1 * u(rng), flat * u(rng)});
+    }
+    const double a[3] = {0.1 * u(rng), 0.1 * u(rng), 1 + 0.5 * u(rng)};
+    const double b[3] = {0.1 * u(rng), 0.1 * u(rng), -1 + 0.5 * u(rng)};
+    std::vector<int32_t> ring(n);
+    for (int s = 0; s < n; ++s) ring[s] = s;
+    detail::ShellAlpha sa;
+    sa.reset(n, ring.data(), a, b, m);
+    auto bits = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+    for (int i = 0; i < n; ++i)
+      for (int k = i + 1; k < n; ++k)
+        for (int j = k + 1; j < n; ++j) {
+          const double *pi = m.point(i), *pk = m.point(k), *pj = m.point(j);
+          const double top = sa.top(i, k, j), want_top = alpha(pi, pk, pj, b);
+          const double bottom = sa.bottom(i, k, j), want_bottom = alpha(pi, pj, pk, a);
+          EXPECT_TRUE(bits(top, want_top)) << trial << ": " << top << " vs " << want_top;
+          EXPECT_TRUE(bits(bottom, want_bottom)) << trial << ": " << bottom << " vs " << want_bottom;
+          checked += 2;
+          positive += (top > 0) + (bottom > 0);
+        }
+  }
+  EXPECT_GT(checked, 10000);
+  EXPECT_GT(positive, 1000);  // both orientations met
+  EXPECT_LT(positive, checked);
 }
