@@ -13,6 +13,7 @@
 #include <string>
 
 #include "detail/tet_kernels.hpp"
+#include "tet_shapes.hpp"
 #include "tetopt/generate.hpp"
 #include "tetopt/io.hpp"
 #include "tetopt/measures.hpp"
@@ -503,32 +504,11 @@ TEST(Measures, CliQualityJsonHasTheNewKeys) {
 // tiny/huge tets.
 TEST(Measures, TetMeasureValuesAreTheStandaloneOnes) {
   std::mt19937_64 rng(77);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto bits = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
   int positive = 0, degenerate = 0;
   for (int k = 0; k < 40000; ++k) {
     double p[4][3];
-    for (auto& q : p)
-      for (double& x : q) x = u(rng);
-    const int shape = k % 8;
-    const double eps = std::pow(10.0, -1.0 - static_cast<double>(k % 13));
-    if (shape == 1) {
-      for (int j = 0; j < 3; ++j) p[3][j] = 0.5 * (p[0][j] + p[1][j]) + 0.3 * (p[2][j] - p[0][j]);
-      p[3][2] += eps;
-    } else if (shape == 2) {
-      for (int j = 0; j < 3; ++j) p[1][j] = p[0][j] + eps * u(rng);
-    } else if (shape == 3) {
-      for (int j = 0; j < 3; ++j) p[3][j] = (p[0][j] + p[1][j] + p[2][j]) / 3;
-      p[3][0] += eps;
-    } else if (shape == 4) {
-      for (auto& q : p) q[2] = 0.25;
-    } else if (shape == 5) {
-      for (int j = 0; j < 3; ++j) p[2][j] = p[1][j];
-    } else if (shape == 6) {
-      const double scale = (k % 16 < 8) ? 1e-100 : 1e100;
-      for (auto& q : p)
-        for (double& x : q) x *= scale;
-    }
+    tetopt_test::shaped_tet(k, rng, p);
     const double *a = p[0], *b = p[1], *c = p[2], *d = p[3];
     const detail::TetMeasureValues v = detail::tet_measure_values(a, b, c, d);
     SCOPED_TRACE(k);

@@ -9,6 +9,7 @@
 #include "tetopt/generate.hpp"
 #include "tetopt/quality.hpp"
 #include "tetopt/report.hpp"
+#include "tet_shapes.hpp"
 
 using namespace tetopt;
 
@@ -176,7 +177,6 @@ TEST(Quality, DihedralExtremesEqualTheMinAndMaxOfTheSixAngles) {
   // degenerate tets, repeated points, tiny and huge scales, and the
   // regular tet (six equal angles: ties).
   std::mt19937_64 rng(12345);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto check = [](const double* a, const double* b, const double* c, const double* d) {
     double dh[6], lo = 0, hi = 0;
     dihedral_angles(a, b, c, d, dh);
@@ -188,31 +188,7 @@ TEST(Quality, DihedralExtremesEqualTheMinAndMaxOfTheSixAngles) {
   int n = 0;
   for (int k = 0; k < 200000; ++k) {
     double p[4][3];
-    for (auto& q : p)
-      for (double& x : q) x = u(rng);
-    const int shape = k % 8;
-    const double eps = std::pow(10.0, -1.0 - static_cast<double>(k % 15));
-    if (shape == 1) {  // sliver: d close to the plane of a, b, c
-      for (int j = 0; j < 3; ++j) p[3][j] = 0.5 * (p[0][j] + p[1][j]) + 0.3 * (p[2][j] - p[0][j]);
-      p[3][2] += eps;
-    } else if (shape == 2) {  // needle: b close to a
-      for (int j = 0; j < 3; ++j) p[1][j] = p[0][j] + eps * u(rng);
-    } else if (shape == 3) {  // cap: d close to the triangle a, b, c, inside it
-      for (int j = 0; j < 3; ++j) p[3][j] = (p[0][j] + p[1][j] + p[2][j]) / 3;
-      p[3][0] += eps;
-    } else if (shape == 4) {  // flat: four coplanar points
-      for (auto& q : p) q[2] = 0.25;
-    } else if (shape == 5) {  // a repeated point
-      for (int j = 0; j < 3; ++j) p[2][j] = p[1][j];
-    } else if (shape == 6) {  // tiny or huge scale
-      const double scale = (k % 16 < 8) ? 1e-150 : 1e150;
-      for (auto& q : p)
-        for (double& x : q) x *= scale;
-    } else if (shape == 7) {  // nearly regular: near-ties among the six
-      const double r[4][3] = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
-      for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 3; ++j) p[i][j] = r[i][j] + eps * u(rng);
-    }
+    tetopt_test::shaped_tet(k, rng, p);
     check(p[0], p[1], p[2], p[3]);
     ++n;
   }
