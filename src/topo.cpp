@@ -1238,10 +1238,10 @@ void TopoEditor::search_insert(int32_t t, InsertSearch& s, std::vector<int32_t>*
   int lead = 0;
   // With the alpha objective the fan runs on a ConeFan copy of the outer
   // faces (cone_alpha4, the same numbers as quality()), refreshed by each
-  // evaluate(), four faces at a time, so an early
-  // stop comes after a whole block and lead is then a block: the value
-  // returned at or below stop may differ, never one above it (the minimum
-  // over all faces), and compass() compares it with stop only.
+  // evaluate(), four faces at a time.  An early stop then comes after a
+  // whole block and lead is a block: a value returned at or below stop may
+  // differ from the face-by-face loop's, one above it never does (it is the
+  // minimum over all faces), and compass() only compares it with stop.
   const bool fast = o_.objective == Objective::Alpha;
   static_assert(kInsertMax % 4 == 0, "ConeFan holds whole blocks");
   detail::ConeFan<kInsertMax> cone;
