@@ -1870,6 +1870,16 @@ TopoResult TopoEditor::search_point(int32_t t, const double* x, const Acceptance
     if (n < 0) return TopoResult::BoundaryLocked;
     cur = n;
   }
+  // The containing tet is always in the cavity (it never leaves it below),
+  // so a vertex of it nearer than min_dist refuses x as the full check at
+  // the end would, before the cavity search (whose refusals of other kinds
+  // it may pre-empt: a refusal either way).
+  for (int k = 0; k < 4; ++k) {
+    const double* p = m_.point(m_.tet(cur)[k]);
+    if ((p[0] - x[0]) * (p[0] - x[0]) + (p[1] - x[1]) * (p[1] - x[1]) + (p[2] - x[2]) * (p[2] - x[2]) <
+        min_dist * min_dist)
+      return TopoResult::NotApplicable;
+  }
   // Bowyer-Watson cavity, breadth first from the containing tet.  A tet
   // is tested once: mark[tet] == the call's epoch once seen, + 1 once in
   // the cavity.
