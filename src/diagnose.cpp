@@ -1540,8 +1540,6 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   const int32_t nt = m.nt();
   d.tets = nt;
   d.tet_class.assign(static_cast<size_t>(nt), static_cast<uint8_t>(TetClass::Good));
-  std::unordered_map<int32_t, SideBound> face_best;  // canonical packed face -> best alpha
-  std::vector<int32_t> searched_sides;                 // keys of face_best that side_best filled
   std::unordered_map<std::pair<int64_t, int64_t>, int32_t, PairHash> shape_best;  // similar triangles: their job
   // The poor tets, found over parallel blocks (in index order).
   const std::vector<int32_t> poor = detail::parallel_select(
@@ -1550,7 +1548,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   // bounds in parallel (each a function of the mesh alone).
   std::vector<PoorTet> info(poor.size());
   struct FaceKey {
-    int32_t key = -1;       // face_best's key; -1: face not constrained
+    int32_t key = -1;       // the side's key, then its job (below); -1: face not constrained
     bool searched = false;  // wedged or thin: side_best on this side
   };
   std::vector<std::array<FaceKey, 4>> keys(poor.size());
@@ -1604,7 +1602,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     for (int64_t i = i0; i < i1; ++i) examine(i);
   });
   // Each key's bound, searched once: the keys in the order the poor tets
-  // first meet them (so searched_sides and faces_searched are as a serial
+  // first meet them (so faces_searched and the order are as a serial
   // pass over the tets makes them), the searches in parallel.  A face that
   // is neither wedged nor thin gets the triangle's own bound, searched once
   // per shape (shape_best) unless its closed-form apexes already reach the
@@ -1612,7 +1610,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   // run on hinge_raw with the summary (and 9 tenths of a default one) when
   // they ran one after the other.
   struct Job {
-    int32_t key, packed;
+    int32_t packed;  // the side first met
     bool searched;
     SideBound sb;
     double cheap = 0;
@@ -1621,11 +1619,15 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   };
   std::vector<Job> jobs;
   {
-    std::unordered_map<int32_t, int32_t> seen;
+    std::unordered_map<int32_t, int32_t> job_of;  // key -> job
     for (size_t i = 0; i < poor.size(); ++i)
-      for (int f = 0; f < 4; ++f)
-        if (const FaceKey& k = keys[i][f]; k.key >= 0 && seen.emplace(k.key, static_cast<int32_t>(jobs.size())).second)
-          jobs.push_back({k.key, 4 * poor[i] + f, k.searched, {}});
+      for (int f = 0; f < 4; ++f) {
+        FaceKey& k = keys[i][f];
+        if (k.key < 0) continue;
+        const auto [it, fresh] = job_of.emplace(k.key, static_cast<int32_t>(jobs.size()));
+        if (fresh) jobs.push_back({4 * poor[i] + f, k.searched, {}});
+        k.key = it->second;
+      }
   }
   detail::parallel_items(static_cast<int64_t>(jobs.size()), opt.threads, [&](int64_t j) {  // one task each
     Job& jb = jobs[j];
@@ -1649,7 +1651,6 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     const Job& jb = jobs[j];
     if (jb.searched) {
       d.faces_searched++;
-      searched_sides.push_back(jb.packed);
       continue;
     }
     if (jb.cheap >= opt.threshold) continue;
@@ -1669,10 +1670,8 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     face_points(m, jb.packed, fp);
     jb.sb.alpha = best_apex(fp[0], fp[1], fp[2]).value;
   });
-  for (size_t j = 0; j < jobs.size(); ++j) {
+  for (size_t j = 0; j < jobs.size(); ++j)
     if (shape_job[j] >= 0) jobs[j].sb.alpha = jobs[shape_job[j]].sb.alpha;
-    face_best.emplace(jobs[j].key, jobs[j].sb);
-  }
   d.poor.reserve(poor.size());
   for (size_t i = 0; i < poor.size(); ++i) {
     PoorTet& p = info[i];
@@ -1680,7 +1679,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
     for (int f = 0; f < 4; ++f) {
       if (keys[i][f].key < 0) continue;
       p.constrained_faces++;
-      const SideBound& sb = face_best.at(keys[i][f].key);
+      const SideBound& sb = jobs[keys[i][f].key].sb;
       const double best = sb.alpha;
       if (!std::isnan(best) && (std::isnan(p.best_alpha) || best < p.best_alpha)) {
         p.best_alpha = best;
@@ -1720,7 +1719,8 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
   });
   if (opt.mesh_bound) {
     SideCache known;  // the wedged and thin sides searched above
-    for (const int32_t side : searched_sides) known.emplace(side, face_best.at(side));
+    for (const Job& jb : jobs)
+      if (jb.searched) known.emplace(jb.packed, jb.sb);
     d.bound = mesh_bound_impl(m, opt.threads, opt.all_measures, known, opt.walls);
     // A poor tet's wedge bound holds for the whole mesh too.
     for (const PoorTet& p : d.poor)
