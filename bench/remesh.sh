@@ -5,6 +5,7 @@
 #     0.25): a body in a flow box with no interior vertex;
 #   * raw `tetgen -pAQ` output of cylinder_hole.geo (h = 0.1) and
 #     thin_wall.geo (ch_0p1_A, tw_A: inner surfaces kept as interfaces);
+#   * blade_passage.geo (s = 0.06, tk = 0.05): gmsh's mesh and raw `tetgen -pQ`;
 #   * the demo impeller at s = 2 (a mesher's output, two regions);
 #   * ../shared/meshes hinge_raw (raw tetgen), tire and flange when present.
 # Every output is judged by ../shared/tools/meshcheck.py compare (boundary
@@ -48,6 +49,17 @@ raw() {  # name, geo, gmsh arguments...
 }
 raw ch_0p1_A cylinder_hole.geo -setnumber h 0.1
 raw tw_A thin_wall.geo
+# A blade passage (blade_passage.geo: a thin twisted blade with a sharp
+# trailing edge, hub to shroud): gmsh's own mesh (bp_g) and the raw
+# `tetgen -pQ` output of its surface (bp_raw; TetGen reads it as STL).
+bp="-nt 1 -setnumber s 0.06 -setnumber tk 0.05"
+[ -f "$OUT/bp_g.mesh" ] || gmsh -3 $bp -format mesh "$ROOT/tests/data/gmsh/blade_passage.geo" -o "$OUT/bp_g.mesh" > /dev/null 2>&1
+if [ ! -f "$OUT/bp_raw.mesh" ]; then
+  gmsh -2 $bp -format stl "$ROOT/tests/data/gmsh/blade_passage.geo" -o "$OUT/bp_surf.stl" > /dev/null 2>&1
+  tetgen -pQ "$OUT/bp_surf.stl" > /dev/null 2>&1
+  "$T" convert "$OUT/bp_surf.1.node" "$OUT/bp_raw.mesh" > /dev/null
+fi
+meshes+=("$OUT/bp_g.mesh" "$OUT/bp_raw.mesh")
 [ -f "$OUT/impeller_s2.mesh" ] || gmsh -3 -nt 1 -setnumber s 2 -format mesh "$ROOT/demo/impeller.geo" -o "$OUT/impeller_s2.mesh" > /dev/null 2>&1
 meshes+=("$OUT/impeller_s2.mesh")
 for f in hinge_raw/hinge_raw.mesh tire/tire.vtk flange/flange.mesh; do [ -f "$SH/$f" ] && meshes+=("$SH/$f"); done

@@ -200,6 +200,9 @@ int cmd_improve(const std::vector<std::string>& args) {
   LogFn log = [&](LogLevel lvl, const std::string& msg) {
     if (quiet) return;
     if (lvl == LogLevel::Progress) {
+      // Off a terminal, -v keeps the passes' progress messages as lines (each
+      // round's worst and threshold): the log of a run in a batch job.
+      if (verbose && !tty) std::fprintf(stderr, "%s\n", msg.c_str());
       return;
     } else if (lvl == LogLevel::Warning) {
       std::fprintf(stderr, "warning: %s\n", msg.c_str());
