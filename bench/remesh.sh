@@ -10,7 +10,8 @@
 #   * ../shared/meshes hinge_raw (raw tetgen), tire and flange when present.
 # Every output is judged by ../shared/tools/meshcheck.py compare (boundary
 # bit-identical, no inverted tet, volumes kept); worst / mean alpha and the
-# tets below alpha 0.2 come from its statistics.  Time: wall seconds of each
+# tets below alpha 0.2 come from its statistics; the input row gives the
+# bound on the worst alpha from `tetopt quality`.  Time: wall seconds of each
 # process; the ratios (insert / default, MMG / insert) are what to read.
 # Extra meshes: MESHES="a.mesh b.mesh" (read in place).  Seconds are wall
 # (CPU = user + sys in brackets).
@@ -89,7 +90,10 @@ for m in "${meshes[@]}"; do
   ext=mesh
   s0=$(run def "$OUT/${b}_def.$ext" "$T" improve "$m" -o "$OUT/${b}_def.$ext" -q)
   s1=$(run ins "$OUT/${b}_ins.$ext" "$T" improve "$m" -o "$OUT/${b}_ins.$ext" -q --allow-insert --allow-remove)
-  echo "| $b | input | | $(stats "$m" "$m" | cut -d'|' -f1-4) | |"
+  # The bound any boundary-keeping mesh obeys (tetopt quality: walls and
+  # wedges counted), against which issue 27 judges the worst alpha.
+  bnd=$("$T" quality "$m" --json 2>/dev/null | "$PY" -c 'import json, sys; print("%.4f" % json.load(sys.stdin)["diagnosis"]["bound"]["alpha_upper_bound"])' 2>/dev/null || echo "?")
+  echo "| $b | input (bound α $bnd) | | $(stats "$m" "$m" | cut -d'|' -f1-4) | |"
   echo "| $b | tetopt default | $s0 | $(stats "$m" "$OUT/${b}_def.$ext") |"
   echo "| $b | tetopt --allow-insert --allow-remove | $s1, $(echo "scale=1; $(wall "$s1") / $(wall "$s0")" | bc)x default | $(stats "$m" "$OUT/${b}_ins.$ext") |"
   if [ -n "${BEFORE:-}" ] && [ -x "$BEFORE" ]; then
