@@ -1942,6 +1942,15 @@ TopoResult TopoEditor::search_point(int32_t t, const double* x, const Acceptance
     mark[cav[drop]] = seen_mark;
     cav[drop] = cav[--nc];
   }
+  // The acceptance first (finish_plan checks it again), without the vertex:
+  // most refused points fail here, so before the cavity's vertex checks
+  // below, which cost more (a refusal either way).
+  double old_min = kInf;  // what set_old_tets gives point_found
+  for (int i = 0; i < nc; ++i) old_min = std::min(old_min, cached_alpha(cav[i]));
+  const double floor = std::max(acc.floor_for(old_min), 0.0);
+  for (int i = 0; i < nf; ++i)
+    if (!(quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), x) >= floor))
+      return TopoResult::NotImproved;
   // No vertex and no listed edge may vanish inside the cavity.
   auto on_surface = [&](int32_t a, int32_t b) {
     for (int j = 0; j < nf; ++j) {
@@ -1966,14 +1975,6 @@ TopoResult TopoEditor::search_point(int32_t t, const double* x, const Acceptance
           return TopoResult::BoundaryLocked;
       }
   }
-  // The acceptance first (finish_plan checks it again), without the vertex:
-  // most refused points fail here, before the plan's other checks.
-  double old_min = kInf;  // what set_old_tets gives point_found
-  for (int i = 0; i < nc; ++i) old_min = std::min(old_min, cached_alpha(cav[i]));
-  const double floor = std::max(acc.floor_for(old_min), 0.0);
-  for (int i = 0; i < nf; ++i)
-    if (!(quality(m_.point(face[i][0]), m_.point(face[i][2]), m_.point(face[i][1]), x) >= floor))
-      return TopoResult::NotImproved;
   return TopoResult::Applied;
 }
 
