@@ -10,6 +10,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "detail/parallel.hpp"
+#include "detail/star_errors.hpp"
 #include "detail/sum.hpp"
 #include "detail/vec3.hpp"
 #include "tetopt/conventions.hpp"
@@ -587,6 +589,24 @@ double tet_error_and_gradient(const double* const p[4], int which, double grad[3
   L.obj = Objective::Alpha;  // was left unset: a garbage value sent some calls down objective_error
   const double zero[3] = {0, 0, 0};
   return local_error(L, zero, grad);
+}
+
+int detail::star_errors_mismatches(const TetMesh& m, int32_t v, const double* dx, double C, int* finite) {
+  Scratch s;
+  s.obj = Objective::Alpha;
+  gather(m, v, clamp_weight(C), s);
+  int bad = 0, fin = 0;
+  double e[4];
+  for (int i0 = 0; i0 < s.n; i0 += 4) {
+    star_errors4(s, i0, dx, e);
+    for (int l = 0; l < 4 && i0 + l < s.n; ++l) {
+      const double ref = local_error(s.tets[i0 + l], dx, nullptr);
+      bad += std::memcmp(&ref, &e[l], sizeof ref) != 0;
+      fin += std::isfinite(ref);
+    }
+  }
+  if (finite) *finite = fin;
+  return bad;
 }
 
 double vertex_objective(const TetMesh& m, int32_t v, double weight) {
