@@ -1,10 +1,12 @@
 // One blade passage of a turbine or compressor row: a cambered, twisted
 // blade with a sharp trailing edge, from hub (z = 0) to shroud (z = span),
 // in a box one pitch wide.  The fluid region only (the blade is a hole).
-// The trailing edge is where a mesher leaves tets with two boundary faces
-// meeting at a sharp edge (issue 27 item 2).
-//   gmsh -3 -setnumber s 0.06 blade_passage.geo        (a mesher's output)
-//   gmsh -2 ... && tetgen -pQ                          (raw tetgen output)
+// Issue 27 item 2 met a blade whose worst tet had two boundary faces
+// meeting at its sharp trailing edge; tests/scripts/test_blade.sh and
+// bench/remesh.sh use this one to check insertion mode on such a blade.
+//   gmsh -3 -setnumber s 0.06 blade_passage.geo                (a mesher's output)
+//   gmsh -2 -format stl ... && tetgen -pQ FILE.stl             (raw tetgen output;
+//   TetGen's .mesh reader stops on gmsh's .mesh surface of it)
 // Airfoil: NACA 4-digit camber line and thickness (Abbott & von Doenhoff,
 // Theory of Wing Sections, 1959, §6.4), with the closed-trailing-edge
 // coefficient -0.1036, so upper and lower sides meet at a point.
