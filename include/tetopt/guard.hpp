@@ -40,6 +40,19 @@ class Guard {
   /// operation may not push an extreme past the current one.
   static void take(const TetMesh& m, int threads, Guard& g);
 
+  /// The extremes and the tets holding them, to put back with restore()
+  /// when the mesh they were taken from is put back (improve.cpp keeps a
+  /// copy of the mesh and may return to it): cheaper than take().
+  struct Extremes {
+    std::array<double, kTetMeasureCount> worst{};
+    std::array<int32_t, kTetMeasureCount> tet{};
+    std::array<std::array<int32_t, 4>, kTetMeasureCount> v{};
+    std::array<std::array<double, 12>, kTetMeasureCount> x{};
+    double sine_enough = 2;
+  };
+  Extremes extremes() const;
+  void restore(const Extremes& e);
+
   /// Whether tet (a, b, c, d) is no worse than every extreme; when not, the
   /// refusal is counted against the first measure it fails.
   bool admits(const double* a, const double* b, const double* c, const double* d) const;

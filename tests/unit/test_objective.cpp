@@ -124,6 +124,25 @@ TEST(Guard, StaleOnlyWhenATetHoldingAnExtremeChanged) {
   EXPECT_FALSE(g.stale(m));
 }
 
+// Guard::extremes and restore (improve.cpp's poor-tet insertion returns to
+// a copy of the mesh): the extremes of one mesh put back after a take() on
+// another are that mesh's again, value for value, and not stale on it.
+TEST(Guard, RestoredExtremesAreTheFirstMeshs) {
+  TetMesh a = box(4, 0.3, 5), b = box(4, 0.1, 6);
+  Guard g;
+  Guard::take(a, 1, g);
+  std::vector<double> first;
+  for (int k = 0; k < kTetMeasureCount; ++k) first.push_back(g.extreme(static_cast<Measure>(k)));
+  const Guard::Extremes saved = g.extremes();
+  Guard::take(b, 1, g);
+  int differ = 0;
+  for (int k = 0; k < kTetMeasureCount; ++k) differ += g.extreme(static_cast<Measure>(k)) != first[static_cast<size_t>(k)];
+  ASSERT_GT(differ, 0) << "the two boxes have the same extremes: nothing shown";
+  g.restore(saved);
+  for (int k = 0; k < kTetMeasureCount; ++k) EXPECT_EQ(g.extreme(static_cast<Measure>(k)), first[static_cast<size_t>(k)]) << kMeasures[k].key;
+  EXPECT_FALSE(g.stale(a));
+}
+
 // The promise of item 3: with the guards on (the default), a run ends no
 // worse than its input on the worst of any per-tet measure, for every
 // objective, and the boundary is kept (check_invariants inside improve).
