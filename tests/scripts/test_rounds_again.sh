@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# The rounds once more (improve.cpp, improve(): a remesher run whose worst
+# alpha is still far below the bound runs mode best's rounds again, and
+# those insert in tets with two constrained vertices as well as three or
+# four).  Raw `tetgen -pAQ` output of tests/data/gmsh/cylinder_hole.geo at
+# h = 0.15, where the first rounds stop near alpha 0.08: with
+# --allow-insert --allow-remove the run must say it ran the rounds again,
+# keep the boundary bit for bit (the referee when present, and tetopt's own
+# check), end no lower than the default mode and reach 0.8 of the bound
+# from the report's diagnosis.  With the rounds once more visiting only
+# tets with three or four constrained vertices it ended at 0.4753 of a
+# 0.5989 bound (79%), below the 0.8 asked; with two as well, 0.4998 (83%).
+# Usage: bash test_rounds_again.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
+set -euo pipefail
+CLI=${1:?usage: $0 TETOPT_CLI SOURCE_DIR}
+SRC=${2:?usage: $0 TETOPT_CLI SOURCE_DIR}
+PY=/usr/bin/python3
+[ -x "$CLI" ] || { echo "skip: no CLI at $CLI"; exit 77; }
+command -v gmsh >/dev/null || { echo "skip: no gmsh"; exit 77; }
+command -v tetgen >/dev/null || { echo "skip: no tetgen"; exit 77; }
+"$PY" -c 'import json' || { echo "skip: no $PY"; exit 77; }
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+
+gmsh -2 -nt 1 -setnumber h 0.15 -format mesh "$SRC/tests/data/gmsh/cylinder_hole.geo" -o "$T/surf.mesh" > "$T/gmsh.log" 2>&1
+tetgen -pAQ "$T/surf.mesh" > "$T/tetgen.log" 2>&1
+"$CLI" convert "$T/surf.1.node" "$T/raw.mesh" > /dev/null
+"$CLI" improve "$T/raw.mesh" -o "$T/def.mesh" --report "$T/def.json" -q
+"$CLI" improve "$T/raw.mesh" -o "$T/ins.mesh" --report "$T/ins.json" --allow-insert --allow-remove > "$T/ins.log" 2>&1
+grep -q "^rounds again: worst alpha" "$T/ins.log" || { cat "$T/ins.log"; echo "FAIL: the run did not run the rounds again (nothing shown)"; exit 1; }
+REF="$SRC/../shared/tools/meshcheck.py"
+if [ -f "$REF" ] && "$PY" -c 'import meshio, numpy' 2>/dev/null; then
+  for x in def ins; do
+    "$PY" "$REF" compare "$T/raw.mesh" "$T/$x.mesh" > "$T/ref.log" 2>&1 || { cat "$T/ref.log"; echo "FAIL: the referee rejects $x"; exit 1; }
+  done
+  echo "referee: both outputs keep the boundary, no inverted tet, volumes kept"
+fi
+
+"$PY" - "$T" <<'PYEOF'
+import json, sys
+d = sys.argv[1]
+def fail(msg): print("FAIL:", msg); sys.exit(1)
+de, ins = (json.load(open(f"{d}/{x}.json")) for x in ("def", "ins"))
+for x, r in (("def", de), ("ins", ins)):
+    b = r["boundary_unchanged"]
+    if not (b["checked"] and b["ok"]): fail(f"{x}: boundary_unchanged {b}")
+bound = ins["diagnosis"]["bound"]["alpha_upper_bound"]
+a, a0 = ins["after"], de["after"]
+print("input %d tets worst %.4f | default %.4f | insertion %d tets worst %.4f mean %.4f | bound %.4f (%.0f%%)" % (
+    ins["before"]["tets"], ins["before"]["alpha_worst"], a0["alpha_worst"], a["tets"], a["alpha_worst"],
+    a["alpha_mean"], bound, 100 * a["alpha_worst"] / bound))
+if not a["alpha_worst"] >= a0["alpha_worst"]: fail("insertion ends below the default mode")
+if not a["alpha_worst"] >= 0.8 * bound: fail(f"worst alpha {a['alpha_worst']:.4f} < 0.8 x the bound {bound:.4f}")
+if not a["alpha_worst"] <= bound + 1e-9: fail("worst alpha above the bound")
+print("ok")
+PYEOF
