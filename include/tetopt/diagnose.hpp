@@ -193,6 +193,10 @@ struct MeshBound {
   /// When the alpha bound's triangle side is capped by a wall facing it
   /// (side_bound), the wall's distance along its normal; NaN otherwise.
   double alpha_wall_d = NAN;
+  /// Whether the alpha bound is that of its triangle and the kept triangle
+  /// beside it at a sharp edge, whose tets share the angle there (the
+  /// worse of the two is at most alpha; see the essay).
+  bool alpha_pair = false;
   int64_t refined = 0;            ///< triangles searched in full (all objectives)
   /// The fewest tets below alpha kCountThresholds[k] that any mesh keeping
   /// the constrained triangles has (-1: not computed).  Each side of a kept
