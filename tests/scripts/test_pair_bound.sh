@@ -11,24 +11,13 @@
 # insertion run must reach it (within 1e-4) and not pass it, keeping the
 # boundary (the referee when present, and tetopt's own check).
 # Usage: bash test_pair_bound.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
-set -euo pipefail
-CLI=${1:?usage: $0 TETOPT_CLI SOURCE_DIR}
-SRC=${2:?usage: $0 TETOPT_CLI SOURCE_DIR}
-PY=/usr/bin/python3
-[ -x "$CLI" ] || { echo "skip: no CLI at $CLI"; exit 77; }
-command -v gmsh >/dev/null || { echo "skip: no gmsh"; exit 77; }
-"$PY" -c 'import json' || { echo "skip: no $PY"; exit 77; }
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh
 
 gmsh -3 -nt 1 -setnumber s 0.08 -setnumber tk 0.05 -format mesh "$SRC/tests/data/gmsh/blade_passage.geo" -o "$T/in.mesh" > "$T/gmsh.log" 2>&1
 "$CLI" quality "$T/in.mesh" --json > "$T/q.json"
 "$CLI" improve "$T/in.mesh" -o "$T/out.mesh" --report "$T/ins.json" -q --allow-insert --allow-remove
-REF="$SRC/../shared/tools/meshcheck.py"
-if [ -f "$REF" ] && "$PY" -c 'import meshio, numpy' 2>/dev/null; then
-  "$PY" "$REF" compare "$T/in.mesh" "$T/out.mesh" > "$T/ref.log" 2>&1 || { cat "$T/ref.log"; echo "FAIL: the referee rejects the output"; exit 1; }
-  echo "referee: the output keeps the boundary, no inverted tet, volumes kept"
-fi
+referee "$T/in.mesh" "$T/out.mesh" out
+[ "$have_ref" = 1 ] && echo "referee: the output keeps the boundary, no inverted tet, volumes kept"
 "$PY" - "$T" <<'PYEOF'
 import json, sys
 d = sys.argv[1]

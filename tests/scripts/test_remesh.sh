@@ -9,16 +9,7 @@
 # mesh has 0.3) and leave fewer tets below alpha 0.2 than the default mode;
 # with --size it refines to the size asked; --no-remesh gives the former mode.
 # Usage: bash test_remesh.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
-set -euo pipefail
-CLI=${1:?usage: $0 TETOPT_CLI SOURCE_DIR}
-SRC=${2:?usage: $0 TETOPT_CLI SOURCE_DIR}
-PY=/usr/bin/python3
-[ -x "$CLI" ] || { echo "skip: no CLI at $CLI"; exit 77; }
-command -v gmsh >/dev/null || { echo "skip: no gmsh"; exit 77; }
-command -v tetgen >/dev/null || { echo "skip: no tetgen"; exit 77; }
-"$PY" -c 'import json' || { echo "skip: no $PY"; exit 77; }
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh tetgen
 
 gmsh -2 -nt 1 -setnumber s 1.0 -format mesh "$SRC/tests/data/gmsh/body_in_box.geo" -o "$T/surf.mesh" > "$T/gmsh.log" 2>&1
 tetgen -pQ "$T/surf.mesh" > "$T/tetgen.log" 2>&1
@@ -28,13 +19,8 @@ tetgen -pQ "$T/surf.mesh" > "$T/tetgen.log" 2>&1
 "$CLI" improve "$T/raw.mesh" -o "$T/fine.mesh" --report "$T/fine.json" -q --allow-insert --size 0.15
 "$CLI" improve "$T/raw.mesh" -o "$T/old.mesh" --report "$T/old.json" -q --allow-insert --no-remesh
 
-REF="$SRC/../shared/tools/meshcheck.py"
-if [ -f "$REF" ] && "$PY" -c 'import meshio, numpy' 2>/dev/null; then
-  for x in def ins fine old; do
-    "$PY" "$REF" compare "$T/raw.mesh" "$T/$x.mesh" > "$T/ref_$x.log" 2>&1 || { cat "$T/ref_$x.log"; echo "FAIL: the referee rejects $x"; exit 1; }
-  done
-  echo "referee: all four outputs keep the boundary, no inverted tet, volumes kept"
-fi
+for x in def ins fine old; do referee "$T/raw.mesh" "$T/$x.mesh" "$x"; done
+[ "$have_ref" = 1 ] && echo "referee: all four outputs keep the boundary, no inverted tet, volumes kept"
 
 "$PY" - "$T" <<'PYEOF'
 import json, sys

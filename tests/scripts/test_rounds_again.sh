@@ -13,16 +13,7 @@
 # (83%), and with one run visiting only tets with three or four constrained
 # vertices 0.4753 (79%).
 # Usage: bash test_rounds_again.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
-set -euo pipefail
-CLI=${1:?usage: $0 TETOPT_CLI SOURCE_DIR}
-SRC=${2:?usage: $0 TETOPT_CLI SOURCE_DIR}
-PY=/usr/bin/python3
-[ -x "$CLI" ] || { echo "skip: no CLI at $CLI"; exit 77; }
-command -v gmsh >/dev/null || { echo "skip: no gmsh"; exit 77; }
-command -v tetgen >/dev/null || { echo "skip: no tetgen"; exit 77; }
-"$PY" -c 'import json' || { echo "skip: no $PY"; exit 77; }
-T=$(mktemp -d)
-trap 'rm -rf "$T"' EXIT
+source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh tetgen
 
 gmsh -2 -nt 1 -setnumber h 0.15 -format mesh "$SRC/tests/data/gmsh/cylinder_hole.geo" -o "$T/surf.mesh" > "$T/gmsh.log" 2>&1
 tetgen -pAQ "$T/surf.mesh" > "$T/tetgen.log" 2>&1
@@ -30,13 +21,8 @@ tetgen -pAQ "$T/surf.mesh" > "$T/tetgen.log" 2>&1
 "$CLI" improve "$T/raw.mesh" -o "$T/def.mesh" --report "$T/def.json" -q
 "$CLI" improve "$T/raw.mesh" -o "$T/ins.mesh" --report "$T/ins.json" --allow-insert --allow-remove > "$T/ins.log" 2>&1
 [ "$(grep -c "^rounds again: worst alpha" "$T/ins.log")" -ge 2 ] || { cat "$T/ins.log"; echo "FAIL: the run did not run the rounds again twice (nothing shown)"; exit 1; }
-REF="$SRC/../shared/tools/meshcheck.py"
-if [ -f "$REF" ] && "$PY" -c 'import meshio, numpy' 2>/dev/null; then
-  for x in def ins; do
-    "$PY" "$REF" compare "$T/raw.mesh" "$T/$x.mesh" > "$T/ref.log" 2>&1 || { cat "$T/ref.log"; echo "FAIL: the referee rejects $x"; exit 1; }
-  done
-  echo "referee: both outputs keep the boundary, no inverted tet, volumes kept"
-fi
+for x in def ins; do referee "$T/raw.mesh" "$T/$x.mesh" "$x"; done
+[ "$have_ref" = 1 ] && echo "referee: both outputs keep the boundary, no inverted tet, volumes kept"
 
 "$PY" - "$T" <<'PYEOF'
 import json, sys

@@ -1,0 +1,27 @@
+# Sourced by the script tests that run the CLI on meshes they make with gmsh
+# (and tetgen): checks the arguments, skips (exit 77) when the CLI, a tool
+# named after the two arguments or /usr/bin/python3 is missing, makes the
+# scratch folder $T (removed on exit), and defines `referee BEFORE AFTER
+# NAME`, which runs ../shared/tools/meshcheck.py compare when it and
+# Debian's python3-meshio and python3-numpy are present (have_ref=1) and
+# fails the test when it rejects AFTER.
+# Usage: source cli_prologue.sh TETOPT_CLI SOURCE_DIR [TOOL...]
+set -euo pipefail
+CLI=${1:?usage: TEST TETOPT_CLI SOURCE_DIR}
+SRC=${2:?usage: TEST TETOPT_CLI SOURCE_DIR}
+shift 2
+PY=/usr/bin/python3
+[ -x "$CLI" ] || { echo "skip: no CLI at $CLI"; exit 77; }
+for tool in "$@"; do
+  command -v "$tool" >/dev/null || { echo "skip: no $tool"; exit 77; }
+done
+"$PY" -c 'import json' || { echo "skip: no $PY"; exit 77; }
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+REF="$SRC/../shared/tools/meshcheck.py"
+have_ref=0
+if [ -f "$REF" ] && "$PY" -c 'import meshio, numpy' 2>/dev/null; then have_ref=1; fi
+referee() {
+  [ "$have_ref" = 1 ] || return 0
+  "$PY" "$REF" compare "$1" "$2" > "$T/ref_$3.log" 2>&1 || { cat "$T/ref_$3.log"; echo "FAIL: the referee rejects $3"; exit 1; }
+}
