@@ -933,6 +933,40 @@ double pair_best_alpha(const double* const t[3], int et, const double* const tw[
   return best;
 }
 
+// Lowers `cur` to the pair bound (pair_best_alpha) of side `side` with
+// the kept face beside it at each of its sharp edges (face_wedges) where
+// that is below cur - tol; a pair's bound is at least its two tets' alpha
+// now (the mesh itself keeps both faces).  Returns whether it lowered cur.
+bool lower_by_pairs(const TetMesh& m, int32_t side, double tol, double& cur) {
+  const double* tw[3];
+  int32_t other[3];
+  if (face_wedges(m, side, tw, other) == 0) return false;
+  const double* tp[3];
+  face_points(m, side, tp);
+  bool lowered = false;
+  for (int e = 0; e < 3; ++e) {
+    if (other[e] < 0) continue;
+    const double* up[3];
+    const double* uw[3];
+    face_points(m, other[e], up);
+    face_wedges(m, other[e], uw);
+    int eu = -1;  // the shared edge in the other face
+    for (int k = 0; k < 3; ++k)
+      if ((up[k] == tp[e] && up[(k + 1) % 3] == tp[(e + 1) % 3]) ||
+          (up[k] == tp[(e + 1) % 3] && up[(k + 1) % 3] == tp[e]))
+        eu = k;
+    if (eu < 0) continue;
+    const double now = std::min(tet_alpha(m, side >> 2), tet_alpha(m, other[e] >> 2));
+    if (now >= cur - tol) continue;
+    const double v = std::max(now, pair_best_alpha(tp, e, tw, up, eu, uw, cur - tol));
+    if (v < cur - tol) {
+      cur = v;
+      lowered = true;
+    }
+  }
+  return lowered;
+}
+
 // Walls facing one side of a kept face (issue 27: a wall one tet thick).
 // First a straight walk from T's centroid along its normal into the side,
 // through the tets, to the first kept face (or the domain's boundary): its
@@ -1569,7 +1603,10 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
       if (v < cur) {
         cur = v;
         arg[o] = i;
-        if (o == 0) wall_d = NAN, pair_arg = false;
+        if (o == 0) {
+          wall_d = NAN;
+          pair_arg = false;
+        }
       }
     }
     // Then the pairs at the sharp edges of the wedged faces searched above
@@ -1580,38 +1617,17 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
     // cheap value was below the bound when they were searched): a pair of
     // two faces that each allow a better apex alone may still bind, and is
     // not looked for, so this part makes the bound tighter where it finds a
-    // pair and never wrong, but not exact to tol.  An extra 0.01-0.5 s of
+    // pair and never wrong, but not exact to tol.  An extra 0.01-0.09 s of
     // `tetopt quality` on the bench meshes (docs/benchmarks.md,
     // twenty-eighth session).
     if (o == 0)
-    for (const size_t i : paired) {
-      for (const int32_t side : {faces[i], m.adj[static_cast<size_t>(faces[i])]}) {
-        if (side < 0) continue;
-        const double* tw[3];
-        int32_t other[3];
-        if (face_wedges(m, side, tw, other) == 0) continue;
-        const double* tp[3];
-        face_points(m, side, tp);
-        for (int e = 0; e < 3; ++e) {
-          if (other[e] < 0) continue;
-          const double* up[3];
-          const double* uw[3];
-          face_points(m, other[e], up);
-          face_wedges(m, other[e], uw);
-          int eu = -1;
-          for (int k = 0; k < 3; ++k)
-            if ((up[k] == tp[e] && up[(k + 1) % 3] == tp[(e + 1) % 3]) ||
-                (up[k] == tp[(e + 1) % 3] && up[(k + 1) % 3] == tp[e]))
-              eu = k;
-          if (eu < 0) continue;
-          // The pair as it is now is a mesh keeping both: at least that.
-          const double now = std::min(tet_alpha(m, side >> 2), tet_alpha(m, other[e] >> 2));
-          if (now >= cur - tol) continue;
-          const double v = std::max(now, pair_best_alpha(tp, e, tw, up, eu, uw, cur - tol));
-          if (v < cur - tol) { cur = v; arg[o] = i; wall_d = NAN; pair_arg = true; }
-        }
-      }
-    }
+      for (const size_t i : paired)
+        for (const int32_t side : {faces[i], m.adj[static_cast<size_t>(faces[i])]})
+          if (side >= 0 && lower_by_pairs(m, side, tol, cur)) {
+            arg[o] = i;
+            wall_d = NAN;
+            pair_arg = true;
+          }
     result[o] = cur;
     mb.measure[static_cast<size_t>(measure_of(obj))] = to_public(obj, cur);
   }
@@ -1851,7 +1867,7 @@ Diagnosis diagnose(const TetMesh& m, const DiagnoseOptions& opt) {
         d.bound.alpha_face = p.wedge_face;
         d.bound.alpha_wedge_deg = p.wedge_deg;
         d.bound.alpha_wall_d = NAN;
-        d.bound.alpha_pair = true;
+        d.bound.alpha_pair = false;
         const double* fp[3];
         face_points(m, 4 * p.tet + p.wedge_face, fp);
         for (int k = 0; k < 3; ++k) d.bound.alpha_location[k] = (fp[0][k] + fp[1][k] + fp[2][k]) / 3;

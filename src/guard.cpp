@@ -112,28 +112,6 @@ void Guard::take(const TetMesh& m, int threads, Guard& g) {
   g.apply_floor_and_sine();
 }
 
-Guard::Extremes Guard::extremes() const {
-  Extremes e;
-  e.worst = worst_;
-  for (size_t k = 0; k < holder_.size(); ++k) {
-    e.tet[k] = holder_[k].tet;
-    std::copy(holder_[k].v, holder_[k].v + 4, e.v[k].begin());
-    std::copy(holder_[k].x, holder_[k].x + 12, e.x[k].begin());
-  }
-  e.sine_enough = sine_enough_;
-  return e;
-}
-
-void Guard::restore(const Extremes& e) {
-  worst_ = e.worst;
-  for (size_t k = 0; k < holder_.size(); ++k) {
-    holder_[k].tet = e.tet[k];
-    std::copy(e.v[k].begin(), e.v[k].end(), holder_[k].v);
-    std::copy(e.x[k].begin(), e.x[k].end(), holder_[k].x);
-  }
-  sine_enough_ = e.sine_enough;
-}
-
 void Guard::set_floor(const std::array<double, kTetMeasureCount>& floor) {
   has_floor_ = true;
   floor_ = floor;  // applied by take()

@@ -38,13 +38,15 @@ ImproveReport with_times_of(ImproveReport counters, const ImproveReport& times) 
   return counters;
 }
 
-// Runs the phases of one mode and accumulates counters and times in rep.
+// What decides whether the poor-tet insertion is kept (improve()): the
+// tets below the poor-tet level, then the mean alpha.
 struct PoorTally {
-  int64_t below = 0;  // tets below the poor-tet level
-  double mean = 0;    // mean alpha
+  int64_t below = 0;
+  double mean = 0;
   bool better_than(const PoorTally& o) const { return below != o.below ? below < o.below : mean >= o.mean; }
 };
 
+// Runs the phases of one mode and accumulates counters and times in rep.
 class Driver {
  public:
   Driver(TetMesh& m, const ImproveOptions& o, ImproveReport& r, const LogFn& log,
@@ -728,29 +730,7 @@ class Driver {
     refresh_guard();
     return insert_below(below);
   }
-  // The count of tets below `below` and the mean alpha: what decides
-  // whether the poor-tet insertion is kept (improve()).
-  PoorTally poor_tally(double below) const {
-    PoorTally p;
-    const int32_t nt = m_.nt();
-    const std::pair<int64_t, double> cs = detail::parallel_reduce_blocks(
-        nt, threads_, std::pair<int64_t, double>{0, 0.0},
-        [&](int64_t b, int64_t e) {
-          std::pair<int64_t, double> x{0, 0.0};
-          for (int64_t t = b; t < e; ++t) {
-            const double a = tet_alpha(m_, static_cast<int32_t>(t));
-            x.first += a < below;
-            x.second += a;
-          }
-          return x;
-        },
-        [](std::pair<int64_t, double> x, std::pair<int64_t, double> y) {
-          return std::pair<int64_t, double>{x.first + y.first, x.second + y.second};
-        });
-    p.below = cs.first;
-    p.mean = nt > 0 ? cs.second / nt : 0;
-    return p;
-  }
+  PoorTally poor_tally(double below) { return {count_below(below), mean_alpha()}; }
   // The guards' extremes, to put back with the mesh they were taken from
   // (the poor-tet insertion's two branches, improve()).
   Guard::Extremes guard_extremes() const { return guard_ ? guard_->extremes() : Guard::Extremes{}; }
@@ -977,6 +957,71 @@ double near_worst_cap(const TetMesh& m, double worst) {
     }
   return cap;
 }
+
+// The poor-tet stage after the remesher's rounds (improve()): the tets
+// below kPoorBelow, which the rounds left at the level of their star's
+// worst, polished (see Driver::polish_poor).
+// At the bound the rounds' insertion, which aims at the worst tets
+// (below the worst alpha + kInsertBand), has nothing left to lift:
+// one insertion call (Driver::insert_poor) then aims at the tets below
+// kPoorBelow, before their polish.  bib_0p25: 16 -> 14 tets below
+// 0.2 (3 vertices inserted); needle boxes (test_poor_polish) 6 -> 3,
+// 26 -> 21, 23 -> 20, and in one of 18 boxes 29 -> 30; every other
+// bench mesh byte-identical (docs/benchmarks.md, twenty-fifth session).
+//
+// The insertion is kept only when, after the polish, it leaves fewer
+// tets below kPoorBelow than the polish alone would (equal: the higher
+// mean alpha): an insertion may raise its cavity's worst alpha and
+// still leave more tets below 0.2 there, and its new tets, most of
+// them below the mean, lower the mean.  On aorta_vessel the call
+// inserted 835 vertices and the run ended with 2,202 tets below 0.2
+// and a mean of 0.6621; the polish alone gives 2,019 and 0.6658.  A
+// copy of the mesh before the call is polished too when the call
+// changed anything (twenty-eighth session, docs/benchmarks.md).
+Status poor_tet_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, const LogFn& log) {
+  auto polish = [&] {
+    ensure_vertex_tets(m, threads);
+    const int64_t moves = d.polish_poor(kPoorBelow);
+    if (log) log(LogLevel::Debug, "poor-tet polish: " + std::to_string(moves) + " moves");
+  };
+  if (!d.worst_at_bound(d.score().first)) {
+    polish();
+    return Status::success();
+  }
+  d.refresh_guard();
+  TetMesh plain = m;
+  const ImproveReport rep_plain = rep;
+  const Guard::Extremes guard_plain = d.guard_extremes();
+  const InsertStats is = d.insert_poor(kPoorBelow);
+  if (log)
+    log(LogLevel::Debug, "poor-tet insertion: " + std::to_string(is.inserted) + " inserted, " +
+                             std::to_string(is.removed) + " removed");
+  if (!is.status || d.stopped()) return is.status;
+  polish();
+  if (is.inserted + is.removed == 0 || d.stopped()) return Status::success();
+  const PoorTally with = d.poor_tally(kPoorBelow);
+  d.refresh_guard();
+  TetMesh inserted = std::move(m);
+  const ImproveReport rep_inserted = rep;
+  const Guard::Extremes guard_inserted = d.guard_extremes();
+  m = std::move(plain);
+  rep = with_times_of(rep_plain, rep);
+  d.mesh_replaced(guard_plain);
+  polish();
+  const PoorTally without = d.poor_tally(kPoorBelow);
+  const bool keep = d.stopped() || with.better_than(without);
+  if (log)
+    log(LogLevel::Debug, "poor-tet insertion then polish: " + std::to_string(with.below) + " tets below " +
+                             std::to_string(kPoorBelow) + ", mean " + std::to_string(with.mean) +
+                             "; the polish alone: " + std::to_string(without.below) + ", " +
+                             std::to_string(without.mean) + (keep ? "; insertion kept" : "; insertion dropped"));
+  if (keep) {
+    m = std::move(inserted);
+    rep = with_times_of(rep_inserted, rep);
+    d.mesh_replaced(guard_inserted);
+  }
+  return Status::success();
+}
 }  // namespace
 
 Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, const LogFn& log,
@@ -1049,7 +1094,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
     if (opt.allow_insert && opt.remesh && opt.objective == Objective::Alpha && !d.stopped()) {
       const auto tb = Clock::now();
       double ceiling = d.bound();
-      const double w = d.score().first;
+      double w = d.score().first;
       if (w < kAgainBelow * ceiling) {
         const double cap = near_worst_cap(m, w);
         if (log)
@@ -1064,84 +1109,20 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
       // 0.5094 -> 0.5425 in three runs (0.9 of its bound), at h = 0.25
       // 0.5809 -> 0.5874 in two; every other bench mesh and 15 more
       // generated ones stopped after one (twenty-eighth session).
-      for (int run = 0; run < kAgainRuns && run_status && !d.stopped(); ++run) {
-        const double w_run = run == 0 ? w : d.score().first;
-        if (!(w_run < kAgainBelow * ceiling)) break;
+      for (int run = 0; run < kAgainRuns && run_status && !d.stopped() && w < kAgainBelow * ceiling; ++run) {
         if (log)
-          log(LogLevel::Info, "rounds again: worst alpha " + std::to_string(w_run) + ", bound " + std::to_string(ceiling));
+          log(LogLevel::Info, "rounds again: worst alpha " + std::to_string(w) + ", bound " + std::to_string(ceiling));
         run_status = d.again(Driver::best_trial_gammas(opt).front());
         if (run_status && !d.stopped()) {
           ensure_vertex_tets(m, opt.threads);
           d.polish_mean(rep.before.alpha_mean, true);
         }
-        if (!(d.score().first > w_run * (1 + kAgainGain))) break;
+        const double w_next = d.score().first;
+        if (!(w_next > w * (1 + kAgainGain))) break;
+        w = w_next;
       }
-      // Then the tets below kPoorBelow, which the rounds left at the level
-      // of their star's worst (see Driver::polish_poor).
-      // At the bound the rounds' insertion, which aims at the worst tets
-      // (below the worst alpha + kInsertBand), has nothing left to lift:
-      // one insertion call (Driver::insert_poor) then aims at the tets below
-      // kPoorBelow, before their polish.  bib_0p25: 16 -> 14 tets below
-      // 0.2 (3 vertices inserted); needle boxes (test_poor_polish) 6 -> 3,
-      // 26 -> 21, 23 -> 20, and in one of 18 boxes 29 -> 30; every other
-      // bench mesh byte-identical (docs/benchmarks.md, twenty-fifth session).
-      //
-      // The insertion is kept only when, after the polish, it leaves fewer
-      // tets below kPoorBelow than the polish alone would (equal: the higher
-      // mean alpha): an insertion may raise its cavity's worst alpha and
-      // still leave more tets below 0.2 there, and its new tets, most of
-      // them below the mean, lower the mean.  On aorta_vessel the call
-      // inserted 835 vertices and the run ended with 2,202 tets below 0.2
-      // and a mean of 0.6621; the polish alone gives 2,019 and 0.6658.  A
-      // copy of the mesh before the call is polished too when the call
-      // changed anything (twenty-eighth session, docs/benchmarks.md).
-      bool polished = false;
-      if (run_status && !d.stopped() && d.worst_at_bound(d.score().first)) {
-        d.refresh_guard();
-        TetMesh plain = m;
-        const ImproveReport rep_plain = rep;
-        const Guard::Extremes guard_plain = d.guard_extremes();
-        const InsertStats is = d.insert_poor(kPoorBelow);
-        if (!is.status) run_status = is.status;
-        if (log)
-          log(LogLevel::Debug, "poor-tet insertion: " + std::to_string(is.inserted) + " inserted, " +
-                                   std::to_string(is.removed) + " removed");
-        if (run_status && !d.stopped() && is.inserted + is.removed > 0) {
-          ensure_vertex_tets(m, opt.threads);
-          d.polish_poor(kPoorBelow);
-          const PoorTally with = d.poor_tally(kPoorBelow);
-          if (!d.stopped()) {
-            d.refresh_guard();
-            TetMesh inserted = std::move(m);
-            const ImproveReport rep_inserted = rep;
-            const Guard::Extremes guard_inserted = d.guard_extremes();
-            m = std::move(plain);
-            rep = with_times_of(rep_plain, rep);
-            d.mesh_replaced(guard_plain);
-            ensure_vertex_tets(m, opt.threads);
-            d.polish_poor(kPoorBelow);
-            const PoorTally without = d.poor_tally(kPoorBelow);
-            const bool keep = d.stopped() || with.better_than(without);
-            if (log)
-              log(LogLevel::Debug, "poor-tet insertion then polish: " + std::to_string(with.below) +
-                                       " tets below " + std::to_string(kPoorBelow) + ", mean " +
-                                       std::to_string(with.mean) + "; the polish alone: " +
-                                       std::to_string(without.below) + ", " + std::to_string(without.mean) +
-                                       (keep ? "; insertion kept" : "; insertion dropped"));
-            if (keep) {
-              m = std::move(inserted);
-              rep = with_times_of(rep_inserted, rep);
-              d.mesh_replaced(guard_inserted);
-            }
-          }
-          polished = true;
-        }
-      }
-      if (run_status && !d.stopped() && !polished) {
-        ensure_vertex_tets(m, opt.threads);
-        const int64_t moves = d.polish_poor(kPoorBelow);
-        if (log) log(LogLevel::Debug, "poor-tet polish: " + std::to_string(moves) + " moves");
-      }
+      // Then the tets below 0.2 (poor_tet_stage).
+      if (run_status && !d.stopped()) run_status = poor_tet_stage(d, m, rep, opt.threads, log);
     }
   }
   if (trials.size() > 1 && run_status && !d.aborted()) {

@@ -33,6 +33,12 @@ namespace tetopt {
 struct TetMesh;
 
 class Guard {
+  struct Holder {  // the first tet holding an extreme, as it was
+    int32_t tet = -1;
+    int32_t v[4] = {-1, -1, -1, -1};
+    double x[12] = {};
+  };
+
  public:
   /// Sets g's extremes to those of m's tets now (tets with a non-positive
   /// volume skipped: untangling owns those).  The refusal counts are kept:
@@ -45,13 +51,15 @@ class Guard {
   /// copy of the mesh and may return to it): cheaper than take().
   struct Extremes {
     std::array<double, kTetMeasureCount> worst{};
-    std::array<int32_t, kTetMeasureCount> tet{};
-    std::array<std::array<int32_t, 4>, kTetMeasureCount> v{};
-    std::array<std::array<double, 12>, kTetMeasureCount> x{};
+    std::array<Holder, kTetMeasureCount> holder{};
     double sine_enough = 2;
   };
-  Extremes extremes() const;
-  void restore(const Extremes& e);
+  Extremes extremes() const { return {worst_, holder_, sine_enough_}; }
+  void restore(const Extremes& e) {
+    worst_ = e.worst;
+    holder_ = e.holder;
+    sine_enough_ = e.sine_enough;
+  }
 
   /// Whether tet (a, b, c, d) is no worse than every extreme; when not, the
   /// refusal is counted against the first measure it fails.
@@ -120,11 +128,6 @@ class Guard {
   bool on_ = false;
   std::array<double, kTetMeasureCount> worst_{};
   std::array<bool, kTetMeasureCount> exempt_{};
-  struct Holder {  // the first tet holding an extreme, as it was
-    int32_t tet = -1;
-    int32_t v[4] = {-1, -1, -1, -1};
-    double x[12] = {};
-  };
   std::array<Holder, kTetMeasureCount> holder_{};
   double sine_enough_ = 2;  // sine_min at or above this proves both dihedral extremes
   bool has_floor_ = false;

@@ -494,6 +494,7 @@ TEST(Diagnose, WedgeLockInTheDiagnosisAndTheBound) {
   ASSERT_TRUE(!std::isnan(p.wedge_alpha) || p.wedged);
   EXPECT_NEAR(p.best_alpha, p.alpha, 1e-6) << "the only mesh keeping all four faces is this tet";
   EXPECT_NEAR(d.bound.alpha, p.alpha, 1e-6);
+  EXPECT_FALSE(d.bound.alpha_pair) << "a wedge's bound, not a pair's";
   // mesh_bound alone sees the wedges at every face's sharp edges (nineteenth
   // session), where it used to give the faces' own bound, far above.
   const MeshBound plain = mesh_bound(m);
