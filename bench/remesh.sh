@@ -6,6 +6,7 @@
 #   * raw `tetgen -pAQ` output of cylinder_hole.geo (h = 0.1) and
 #     thin_wall.geo (ch_0p1_A, tw_A: inner surfaces kept as interfaces);
 #   * blade_passage.geo (s = 0.06, tk = 0.05): gmsh's mesh and raw `tetgen -pQ`;
+#   * raw `tetgen -pQ` output of crank.geo (s = 0.03), a CAD part;
 #   * the demo impeller at s = 2 (a mesher's output, two regions);
 #   * ../shared/meshes hinge_raw (raw tetgen), tire and flange when present.
 # Every output is judged by ../shared/tools/meshcheck.py compare (boundary
@@ -61,6 +62,13 @@ if [ ! -f "$OUT/bp_raw.mesh" ]; then
   "$T" convert "$OUT/bp_surf.1.node" "$OUT/bp_raw.mesh" > /dev/null
 fi
 meshes+=("$OUT/bp_g.mesh" "$OUT/bp_raw.mesh")
+# A crankshaft-like CAD part (crank.geo, s = 0.03): raw `tetgen -pQ` output.
+if [ ! -f "$OUT/crank_raw.mesh" ]; then
+  gmsh -2 -nt 1 -setnumber s 0.03 -format stl "$ROOT/tests/data/gmsh/crank.geo" -o "$OUT/crank_surf.stl" > /dev/null 2>&1
+  tetgen -pQ "$OUT/crank_surf.stl" > /dev/null 2>&1
+  "$T" convert "$OUT/crank_surf.1.node" "$OUT/crank_raw.mesh" > /dev/null
+fi
+meshes+=("$OUT/crank_raw.mesh")
 [ -f "$OUT/impeller_s2.mesh" ] || gmsh -3 -nt 1 -setnumber s 2 -format mesh "$ROOT/demo/impeller.geo" -o "$OUT/impeller_s2.mesh" > /dev/null 2>&1
 meshes+=("$OUT/impeller_s2.mesh")
 for f in hinge_raw/hinge_raw.mesh tire/tire.vtk flange/flange.mesh; do [ -f "$SH/$f" ] && meshes+=("$SH/$f"); done

@@ -23,6 +23,43 @@ namespace tetopt {
 // The most tets of a free vertex's star that a signature covers.
 constexpr size_t kStarMax = 128;
 
+// A tet with all four vertices constrained has no vertex to smooth, and
+// where neither an inserted vertex (insert_vertex's cavity is the tet and
+// its face neighbours) nor a removal lifts it, it can stay the mesh's worst
+// for good.  Splitting one of its edges on no constrained face replaces the
+// edge's shell by a cone from a free vertex that the smoothing then moves;
+// the first split whose new tets' worst rises above t's alpha is taken
+// (the shell holds t, so its worst rises too).
+static bool split_locked(TopoEditor& ed, int32_t t, double margin) {
+  Acceptance acc;
+  acc.on = true;
+  acc.floor = ed.cached_alpha(t) + margin;
+  acc.ratio = 0;
+  for (int le = 0; le < 6; ++le)
+    if (ed.split_edge(t, le, acc) == TopoResult::Applied) return true;
+  return false;
+}
+
+int64_t split_locked_worst(TetMesh& m, const InsertOptions& o) {
+  if (!topology_current(m) && !build_topology(m)) return 0;
+  ensure_vertex_tets(m);
+  TopoOptions to;
+  to.margin = o.margin;
+  to.objective = o.objective;
+  to.guard = o.guard;
+  TopoEditor ed(m, to);
+  double worst = INFINITY;
+  for (int32_t t = 0; t < m.nt(); ++t) worst = std::min(worst, ed.cached_alpha(t));
+  std::vector<int32_t> work;
+  for (int32_t t = 0; t < m.nt(); ++t)
+    if (m.tet_kind[t] == 4 && ed.cached_alpha(t) <= worst + o.margin) work.push_back(t);
+  int64_t n = 0;
+  for (const int32_t t : work)
+    if (ed.alive(t) && split_locked(ed, t, o.margin)) ++n;
+  ed.finish();
+  return n;
+}
+
 // The size of the next window of searches made ahead (insert_pass,
 // refine_pass): halved while more than 1 search in 8 was made again,
 // doubled while fewer than 1 in 32 were (TopoEditor::improve_tets' rule).

@@ -102,6 +102,14 @@ struct InsertStats {
 /// order).  The mesh's worst alpha never decreases.
 InsertStats insert_pass(TetMesh& m, const InsertOptions& o = {}, const LogFn& log = {});
 
+/// The tets at the mesh's worst alpha (within o.margin) whose four vertices
+/// are all constrained, where no smoothing can reach: each that has an edge
+/// on no constrained face whose split (TopoEditor::split_edge at its
+/// midpoint) lifts the new tets above the tet's alpha gets that split, the
+/// first such edge in local order, leaving a free vertex there.  Uses
+/// o.margin, o.objective and o.guard; returns the number split.
+int64_t split_locked_worst(TetMesh& m, const InsertOptions& o = {});
+
 /// The interior remesher's refinement and coarsening (issue 27), the logic
 /// of MMG's -optim on a size field (Dapogny, Dobrzynski & Frey 2014, "Three-
 /// dimensional adaptive domain remeshing, implicit domain meshing, and

@@ -9,7 +9,10 @@
 # (each triangle alone in its wedges allowed 0.5026 when this test was
 # written).  `tetopt quality --json` must say the bound is a pair's, and the
 # insertion run must reach it (within 1e-4) and not pass it, keeping the
-# boundary (the referee when present, and tetopt's own check).
+# boundary (the referee when present, and tetopt's own check).  At the
+# bound the rounds once more do not run; their flips and mean polish do
+# (improve.cpp, at_bound_stage): the mean alpha must reach 0.75 with no
+# tet below 0.2 (0.7416 without them, 0.7523 with them when written).
 # Usage: bash test_pair_bound.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
 source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh
 
@@ -33,5 +36,9 @@ print("bound %.4f (a pair), input worst %.4f, insertion %.4f" % (bound, q["alpha
 if not q["alpha_worst"] <= bound + 1e-9: fail("the input itself is above the bound")
 if not w <= bound + 1e-9: fail("the output is above the bound: the bound is wrong")
 if not w >= bound - 1e-4: fail("the output does not reach the bound")
+mean, below = ins["after"]["alpha_mean"], ins["after"]["alpha_below_0.2"]
+print("mean alpha %.4f, %d tets below 0.2" % (mean, below))
+if not mean >= 0.75: fail(f"mean alpha {mean:.4f} below 0.75: the flips and polish at the bound did not run or did not help")
+if below != 0: fail(f"{below} tets below 0.2")
 print("ok")
 PYEOF

@@ -540,16 +540,16 @@ TEST(Remesh, PassRefinesAMeshWithNoInteriorVertex) {
   expect_promise(before, fine, w0);
 }
 
-// A slab one cell thick: every vertex is on the boundary, so no vertex is
-// free; the long body diagonals are still split and the promise holds.
-TEST(Remesh, PassWorksWithNoFreeVertexAtAll) {
+namespace {
+
+// A slab one cell thick, jittered in its plane off the side walls (top and
+// bottom stay planar): every vertex is on the boundary, so no vertex is
+// free, and the tets differ (in the regular slab every tet is the worst).
+TetMesh jittered_slab() {
   BoxMeshOptions bo;
   bo.nx = bo.ny = 5;
   bo.nz = 1;
   TetMesh m = make_box_mesh(bo);
-  // In-plane jitter off the side walls (top and bottom stay planar): the
-  // tets differ, so the worst alpha is a floor that splits can respect (in
-  // the regular slab every tet is the worst and no split is allowed).
   std::mt19937 g(3);
   std::uniform_real_distribution<double> u(-0.25, 0.25);
   for (int32_t v = 0; v < m.nv(); ++v) {
@@ -559,7 +559,16 @@ TEST(Remesh, PassWorksWithNoFreeVertexAtAll) {
       p[1] += u(g);
     }
   }
-  ASSERT_TRUE(build_topology(m).ok());
+  EXPECT_TRUE(build_topology(m).ok());
+  return m;
+}
+
+}  // namespace
+
+// A slab one cell thick: the long body diagonals are still split (the
+// worst alpha is a floor the splits respect) and the promise holds.
+TEST(Remesh, PassWorksWithNoFreeVertexAtAll) {
+  TetMesh m = jittered_slab();
   ASSERT_TRUE(nonpositive_tets(m).empty());
   for (int32_t v = 0; v < m.nv(); ++v) ASSERT_TRUE(m.vert_constrained[v]);
   const TetMesh before = m;
@@ -574,6 +583,40 @@ TEST(Remesh, PassWorksWithNoFreeVertexAtAll) {
   ASSERT_TRUE(compact_vertices(m, st.removed_vertices).ok());
   ASSERT_TRUE(build_topology(m).ok());
   expect_promise(before, m, w0);
+}
+
+// split_locked_worst: the worst tet of the slab has four constrained
+// vertices (every vertex is); it gets an edge split, a free vertex, and the
+// tets at the old worst alpha are gone, the promise kept.  Where the worst
+// tet has a free vertex (the jittered box) nothing changes.
+TEST(Insert, SplitLockedWorstGivesTheWorstTetAFreeVertex) {
+  TetMesh m = jittered_slab();
+  const TetMesh before = m;
+  const double w0 = worst(m);
+  const InsertOptions io;
+  auto at_worst = [&](const TetMesh& x) {
+    int64_t n = 0;
+    for (int32_t t = 0; t < x.nt(); ++t) n += tet_alpha(x, t) <= w0 + io.margin;
+    return n;
+  };
+  ASSERT_GT(at_worst(m), 0);
+  const int64_t split = split_locked_worst(m, io);
+  EXPECT_GT(split, 0);
+  EXPECT_EQ(m.nv(), before.nv() + split);
+  EXPECT_EQ(at_worst(m), 0);
+  EXPECT_GT(worst(m), w0);
+  expect_promise(before, m, w0);
+
+  TetMesh box = rough_box(1, 7);
+  ASSERT_TRUE(build_topology(box).ok());
+  double w = 2;
+  int kind = -1;
+  for (int32_t t = 0; t < box.nt(); ++t)
+    if (tet_alpha(box, t) < w) w = tet_alpha(box, t), kind = box.tet_kind[t];
+  ASSERT_LT(kind, 4);
+  const TetMesh box0 = box;
+  EXPECT_EQ(split_locked_worst(box, io), 0);
+  expect_same_mesh(box0, box);
 }
 
 namespace {
