@@ -40,6 +40,10 @@ ImproveReport with_times_of(ImproveReport counters, const ImproveReport& times) 
 
 // What decides whether the poor-tet insertion is kept (improve()): the
 // tets below the poor-tet level, then the mean alpha.
+// The poor-tet polish's threshold (Driver::polish_poor), and the level no
+// flip at the bound may add tets below (Driver::polish_at_bound).
+constexpr double kPoorBelow = 0.2;
+
 struct PoorTally {
   int64_t below = 0;
   double mean = 0;
@@ -162,10 +166,11 @@ class Driver {
   }
 
   Status flips(double gamma) { return flips(gamma, o_.objective); }
-  Status flips(double gamma, Objective objective) {
+  Status flips(double gamma, Objective objective, double alpha_keep = 0) {
     const auto t = Clock::now();
     TopoOptions to;
     to.quality_threshold = gamma;
+    to.alpha_keep = alpha_keep;
     to.passes = 3;
     to.threads = threads_;
     to.rebuild_stars = false;
@@ -743,7 +748,7 @@ class Driver {
   void polish_at_bound(double mean_input) {
     if (stopped()) return;
     refresh_guard();
-    if (!flips(kBoundFlipGamma, Objective::Alpha)) return;
+    if (!flips(kBoundFlipGamma, Objective::Alpha, kPoorBelow)) return;
     alpha_.clear();
     ensure_vertex_tets(m_, o_.threads);
     polish_mean(mean_input, true);
@@ -957,8 +962,6 @@ namespace {
 constexpr double kAgainBelow = 0.9;
 constexpr double kAgainGain = 0.01;
 constexpr int kAgainRuns = 4;
-// The poor-tet polish's threshold (Driver::polish_poor).
-constexpr double kPoorBelow = 0.2;
 // The rounds once more are for a worst alpha the boundary lets rise by more
 // than 1 / kAgainBelow.  Besides the mesh-wide bound (cheap: no walls), the
 // walled sides of the tets a rise would have to lift: the kAgainSides
@@ -1061,13 +1064,15 @@ Status poor_tet_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, co
 // kPoorBelow and a higher mean: its flips raise local worst alphas and its
 // polish the mean, and either can add a tet below 0.2 (the needle boxes of
 // tests/unit/test_poor_polish.cpp: 3 -> 5, 20 -> 22, 21 -> 23).
-void at_bound_stage(Driver& d, TetMesh& m, ImproveReport& rep, const LogFn& log) {
+void at_bound_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, const LogFn& log) {
   d.refresh_guard();
   const PoorTally before = d.poor_tally(kPoorBelow);
   TetMesh plain = m;
   const ImproveReport rep_plain = rep;
   const Guard::Extremes guard_plain = d.guard_extremes();
   d.polish_at_bound(rep.before.alpha_mean);
+  ensure_vertex_tets(m, threads);
+  d.polish_poor(kPoorBelow);
   const PoorTally after = d.poor_tally(kPoorBelow);
   const bool keep = d.stopped() || (after.below <= before.below && after.mean > before.mean);
   if (log)
@@ -1198,7 +1203,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
       // Then the tets below 0.2 (poor_tet_stage).
       if (run_status && !d.stopped()) run_status = poor_tet_stage(d, m, rep, opt.threads, log);
       // At the bound, no run once more: its flips and polish instead.
-      if (!(w < kAgainBelow * ceiling) && run_status && !d.stopped()) at_bound_stage(d, m, rep, log);
+      if (!(w < kAgainBelow * ceiling) && run_status && !d.stopped()) at_bound_stage(d, m, rep, opt.threads, log);
     }
   }
   if (trials.size() > 1 && run_status && !d.aborted()) {

@@ -407,13 +407,12 @@ bool keeps_angle(const AngleTally& before, const AngleTally& after, double keep)
   return after.above <= before.above && after.worst <= std::max(before.worst, keep);
 }
 // Whether replacing the tets that for_old enumerates by those for_new
-// enumerates keeps TopoOptions::alpha_keep and angle_keep (dihedral measure
-// only).  Each enumerator calls fn(a, b, c, d) with a tet's four points.
+// enumerates keeps TopoOptions::alpha_keep (any measure) and angle_keep
+// (dihedral measure only).  Each enumerator calls fn(a, b, c, d) with a tet's four points.
 // The old tets' angles are measured only when a new tet has one above the
 // level (else the rule holds whatever they were).
 template <class Old, class New>
 bool keeps_levels(const TopoOptions& o, const Old& for_old, const New& for_new) {
-  if (o.measure != TopoMeasure::Dihedral) return true;
   if (const double keep = o.alpha_keep; keep > 0) {
     AlphaTally before, after;
     const Objective ob = o.objective;
@@ -421,6 +420,7 @@ bool keeps_levels(const TopoOptions& o, const Old& for_old, const New& for_new) 
     for_new([&](const double* a, const double* b, const double* c, const double* d) { after.add(objective_quality(ob, a, b, c, d), keep); });
     if (!keeps_alpha(before, after, keep)) return false;
   }
+  if (o.measure != TopoMeasure::Dihedral) return true;
   if (const double keep = o.angle_keep; keep > 0) {
     AngleTally before, after;
     for_new([&](const double* a, const double* b, const double* c, const double* d) { after.add(a, b, c, d, keep); });

@@ -117,11 +117,12 @@ struct TopoOptions {
   /// the measure: set it to the mesh's worst alpha to make a dihedral pass
   /// that never lowers the worst alpha.
   double alpha_floor = -1e300;
-  /// Dihedral measure only (0: off): an operation or vertex move may not
-  /// leave more tets below this alpha than it found, nor a worst alpha below
-  /// min(the worst alpha it found, this).  alpha_floor alone, set to a worst
+  /// Any measure (0: off): an operation or vertex move may not leave more
+  /// tets below this alpha (the objective's q) than it found, nor a worst
+  /// below min(the worst it found, this).  alpha_floor alone, set to a worst
   /// alpha that cannot rise (tets on needle boundary triangles), lets a
-  /// dihedral pass put new tets just above it beside them.
+  /// dihedral pass put new tets just above it beside them; the alpha
+  /// measure's flips raise a local worst alpha but may add tets below this.
   double alpha_keep = 0;
   /// Dihedral measure only (0: off): an operation or vertex move may not
   /// leave more tets with a dihedral angle above this (degrees) than it
