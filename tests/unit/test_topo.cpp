@@ -1146,3 +1146,39 @@ TEST(Topo, ShellAlphaIsAlphaBitForBit) {
   EXPECT_GT(positive, 1000);  // both orientations met
   EXPECT_LT(positive, checked);
 }
+
+// TopoOptions::alpha_keep under the alpha measure (the flips at the bound,
+// improve.cpp, Driver::polish_at_bound): the 2-3 of TwoThreeAddsEdge raises
+// the worst alpha (two flat tets become three better ones), but with a
+// level above the new tets' alpha it leaves three tets below the level
+// where there were two, so alpha_keep at that level refuses it; at a level
+// below the old tets' alpha it is taken.
+TEST(Topo, AlphaKeepHoldsForTheAlphaMeasureFlips) {
+  auto p = ring_points(3, 2.0, 0.3);
+  const TetMesh base = make_mesh(p, {{0, 2, 3, 4}, {1, 2, 3, 4}});
+  const double a = worst_alpha(base);
+  int lf = 0;
+  while (base.adj[lf] < 0) ++lf;
+  TetMesh plain = base;
+  ASSERT_EQ(flip_23(plain, 0, lf), TopoResult::Applied);
+  const double b = worst_alpha(plain);
+  ASSERT_GT(b, a);
+  for (int32_t t = 0; t < 3; ++t) ASSERT_LT(tet_alpha(plain, t), b + 0.01);
+  TopoOptions o;
+  {
+    TetMesh m = base;
+    o.alpha_keep = b + 0.01;  // two tets below it before, three after
+    TopoEditor ed(m, o);
+    EXPECT_EQ(ed.flip_23(0, lf), TopoResult::NotImproved);
+    ed.finish();
+    EXPECT_EQ(m.tets, base.tets);
+  }
+  {
+    TetMesh m = base;
+    o.alpha_keep = 0.5 * a;  // none below it either way
+    TopoEditor ed(m, o);
+    EXPECT_EQ(ed.flip_23(0, lf), TopoResult::Applied);
+    ed.finish();
+    EXPECT_EQ(m.nt(), 3);
+  }
+}
