@@ -105,8 +105,9 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o = {}, const LogFn& lo
 /// The tets at the mesh's worst alpha (within o.margin) whose four vertices
 /// are all constrained, where no smoothing can reach: each that has an edge
 /// on no constrained face whose split (TopoEditor::split_edge at its
-/// midpoint) lifts the new tets above the tet's alpha gets that split, the
-/// first such edge in local order, leaving a free vertex there.  Uses
+/// midpoint, else at 0.3 or 0.7 of it) lifts the new tets above the tet's
+/// alpha gets that split, the first such in that order and local edge
+/// order, leaving a free vertex there.  Uses
 /// o.margin, o.objective and o.guard; returns the number split.
 int64_t split_locked_worst(TetMesh& m, const InsertOptions& o = {});
 
