@@ -1194,7 +1194,7 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
           // tetgen -pQ output of tests/data/gmsh/crank.geo at s = 0.03, a
           // tet on a web's face with its apex on the web's rim held the
           // worst at 0.5376 with the tets around lifted to just above it;
-          // after its split 0.5507 (6.0 s -> 8.7 s).  Splitting such tets
+          // after its split 0.5507 (5.9 s -> 7.5 s).  Splitting such tets
           // in every insertion call of the rounds once more instead took
           // raw cylinder_hole h = 0.1 from 0.4572 to 0.4100 (twenty-ninth
           // session, docs/benchmarks.md).
@@ -1208,7 +1208,8 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
       }
       // Then the tets below 0.2 (poor_tet_stage).
       if (run_status && !d.stopped()) run_status = poor_tet_stage(d, m, rep, opt.threads, log);
-      // At the bound, no run once more: its flips and polish instead.
+      // At the bound (0.9 of the ceiling, from the start or after runs once
+      // more): the flips and polish of a run once more, without its rounds.
       if (!(w < kAgainBelow * ceiling) && run_status && !d.stopped()) at_bound_stage(d, m, rep, opt.threads, log);
     }
   }
