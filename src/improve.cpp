@@ -38,12 +38,12 @@ ImproveReport with_times_of(ImproveReport counters, const ImproveReport& times) 
   return counters;
 }
 
-// What decides whether the poor-tet insertion is kept (improve()): the
-// tets below the poor-tet level, then the mean alpha.
 // The poor-tet polish's threshold (Driver::polish_poor), and the level no
 // flip at the bound may add tets below (Driver::polish_at_bound).
 constexpr double kPoorBelow = 0.2;
 
+// What decides whether the poor-tet insertion and the stage at the bound
+// are kept (improve()): the tets below kPoorBelow, then the mean alpha.
 struct PoorTally {
   int64_t below = 0;
   double mean = 0;
@@ -1001,6 +1001,21 @@ double near_worst_cap(const TetMesh& m, double worst) {
   return cap;
 }
 
+// A mesh, its report and the guards' extremes, as they were before a stage
+// that may be dropped (poor_tet_stage, at_bound_stage): put_back makes
+// them the run's again.  The caller refreshes the guards before taking
+// their extremes.
+struct Saved {
+  TetMesh mesh;
+  ImproveReport rep;
+  Guard::Extremes guard;
+  void put_back(Driver& d, TetMesh& m, ImproveReport& r) {
+    m = std::move(mesh);
+    r = with_times_of(rep, r);
+    d.mesh_replaced(guard);
+  }
+};
+
 // The poor-tet stage after the remesher's rounds (improve()): the tets
 // below kPoorBelow, which the rounds left at the level of their star's
 // worst, polished (see Driver::polish_poor).
@@ -1032,9 +1047,7 @@ Status poor_tet_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, co
     return Status::success();
   }
   d.refresh_guard();
-  TetMesh plain = m;
-  const ImproveReport rep_plain = rep;
-  const Guard::Extremes guard_plain = d.guard_extremes();
+  Saved plain{m, rep, d.guard_extremes()};
   const InsertStats is = d.insert_poor(kPoorBelow);
   if (log)
     log(LogLevel::Debug, "poor-tet insertion: " + std::to_string(is.inserted) + " inserted, " +
@@ -1044,12 +1057,8 @@ Status poor_tet_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, co
   if (is.inserted + is.removed == 0 || d.stopped()) return Status::success();
   const PoorTally with = d.poor_tally(kPoorBelow);
   d.refresh_guard();
-  TetMesh inserted = std::move(m);
-  const ImproveReport rep_inserted = rep;
-  const Guard::Extremes guard_inserted = d.guard_extremes();
-  m = std::move(plain);
-  rep = with_times_of(rep_plain, rep);
-  d.mesh_replaced(guard_plain);
+  Saved inserted{std::move(m), rep, d.guard_extremes()};
+  plain.put_back(d, m, rep);
   polish();
   const PoorTally without = d.poor_tally(kPoorBelow);
   const bool keep = d.stopped() || with.better_than(without);
@@ -1058,11 +1067,7 @@ Status poor_tet_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, co
                              std::to_string(kPoorBelow) + ", mean " + std::to_string(with.mean) +
                              "; the polish alone: " + std::to_string(without.below) + ", " +
                              std::to_string(without.mean) + (keep ? "; insertion kept" : "; insertion dropped"));
-  if (keep) {
-    m = std::move(inserted);
-    rep = with_times_of(rep_inserted, rep);
-    d.mesh_replaced(guard_inserted);
-  }
+  if (keep) inserted.put_back(d, m, rep);
   return Status::success();
 }
 
@@ -1073,9 +1078,7 @@ Status poor_tet_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, co
 void at_bound_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, const LogFn& log) {
   d.refresh_guard();
   const PoorTally before = d.poor_tally(kPoorBelow);
-  TetMesh plain = m;
-  const ImproveReport rep_plain = rep;
-  const Guard::Extremes guard_plain = d.guard_extremes();
+  Saved plain{m, rep, d.guard_extremes()};
   d.polish_at_bound(rep.before.alpha_mean);
   ensure_vertex_tets(m, threads);
   d.polish_poor(kPoorBelow);
@@ -1086,11 +1089,7 @@ void at_bound_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, cons
                              std::to_string(after.below) + " tets below " + std::to_string(kPoorBelow) + ", mean " +
                              std::to_string(before.mean) + " -> " + std::to_string(after.mean) +
                              (keep ? ", kept" : ", dropped"));
-  if (!keep) {
-    m = std::move(plain);
-    rep = with_times_of(rep_plain, rep);
-    d.mesh_replaced(guard_plain);
-  }
+  if (!keep) plain.put_back(d, m, rep);
 }
 }  // namespace
 

@@ -408,8 +408,8 @@ bool keeps_angle(const AngleTally& before, const AngleTally& after, double keep)
 }
 // Whether replacing the tets that for_old enumerates by those for_new
 // enumerates keeps TopoOptions::alpha_keep (any measure) and angle_keep
-// (dihedral measure only).  Each enumerator calls fn(a, b, c, d) with a tet's four points.
-// The old tets' angles are measured only when a new tet has one above the
+// (dihedral measure only).  Each enumerator calls fn(a, b, c, d) with a
+// tet's four points.  The old tets' angles are measured only when a new tet has one above the
 // level (else the rule holds whatever they were).
 template <class Old, class New>
 bool keeps_levels(const TopoOptions& o, const Old& for_old, const New& for_new) {
