@@ -158,8 +158,20 @@ bool Guard::each_measure(const double* a, const double* b, const double* c, cons
   return true;
 }
 
+void Guard::add_zone(const double* c, double r) { zones_.push_back({{c[0], c[1], c[2]}, r * r}); }
+
+bool Guard::in_zone(const double* a, const double* b, const double* c, const double* d) const {
+  for (const Zone& z : zones_)
+    for (const double* p : {a, b, c, d}) {
+      const double dx = p[0] - z.c[0], dy = p[1] - z.c[1], dz = p[2] - z.c[2];
+      if (dx * dx + dy * dy + dz * dz < z.r2) return true;
+    }
+  return false;
+}
+
 bool Guard::admits(const double* a, const double* b, const double* c, const double* d) const {
   if (!on_) return true;
+  if (!zones_.empty() && in_zone(a, b, c, d)) return true;
   // Cheapest first; each comparison is "not worse than the extreme" (NaN
   // fails); a failure is counted against its measure unless exempt.
   return each_measure(a, b, c, d, [&](Measure k, double v, bool higher) {
@@ -173,7 +185,7 @@ bool Guard::admits(const double* a, const double* b, const double* c, const doub
 }
 
 double Guard::slack(const double* a, const double* b, const double* c, const double* d) const {
-  if (!on_) return std::numeric_limits<double>::infinity();
+  if (!on_ || (!zones_.empty() && in_zone(a, b, c, d))) return std::numeric_limits<double>::infinity();
   double s = std::numeric_limits<double>::infinity();
   each_measure(a, b, c, d, [&](Measure k, double v, bool higher) {
     const double e = worst_[idx(k)];

@@ -20,6 +20,7 @@
 #include "tetopt/topo.hpp"
 #include "tetopt/untangle.hpp"
 #include "detail/parallel.hpp"
+#include "detail/vec3.hpp"
 
 namespace tetopt {
 
@@ -41,6 +42,10 @@ ImproveReport with_times_of(ImproveReport counters, const ImproveReport& times) 
 // The poor-tet polish's threshold (Driver::polish_poor), and the level no
 // flip at the bound may add tets below (Driver::polish_at_bound).
 constexpr double kPoorBelow = 0.2;
+
+// The radius of the guards' zone around a forced split's vertex
+// (forced_split_stage), in longest edges of its star.
+constexpr double kZoneEdges = 3;
 
 // What decides whether the poor-tet insertion and the stage at the bound
 // are kept (improve()): the tets below kPoorBelow, then the mean alpha.
@@ -761,19 +766,77 @@ class Driver {
   }
   // The worst tets with four constrained vertices split (split_locked_worst,
   // insert.hpp) under the guards as the rounds left them; returns how many.
-  int64_t split_locked() {
+  // forced (0 < forced < 1): splits that need not lift those tets, with no
+  // guard (forced_split_stage checks the measures after the rounds).
+  int64_t split_locked(double forced = 0) {
     if (stopped() || !o_.allow_insert) return 0;
     const auto t = Clock::now();
     refresh_guard();
     InsertOptions io;
     io.objective = o_.objective;
     io.guard = guard_;
-    const int64_t n = split_locked_worst(m_, io);
+    const int64_t n = split_locked_worst(m_, io, forced);
     alpha_.clear();
     r_.insertions += n;
     r_.seconds_topo += since(t);
-    if (log_) log_(LogLevel::Debug, "locked worst tets split: " + std::to_string(n));
+    if (log_)
+      log_(LogLevel::Debug, std::string(forced > 0 ? "locked worst tets split (forced): " : "locked worst tets split: ") +
+                                std::to_string(n));
     return n;
+  }
+  // The guards hold these extremes, not taken again until unpinned
+  // (forced_split_stage: the extremes from before a split the guards did
+  // not see, while the rounds repair it).
+  void pin_guard(const Guard::Extremes& e) {
+    if (!guard_) return;
+    guard_->restore(e);
+    guard_pinned_ = true;
+  }
+  void unpin_guard() {
+    guard_pinned_ = false;
+    if (guard_) guard_->clear_zones();
+  }
+  // A zone of the guards (Guard::add_zone) around each vertex from `first`
+  // on: kZoneEdges times the longest edge of its star.
+  void zone_new_vertices(int32_t first) {
+    if (!guard_) return;
+    ensure_vertex_tets(m_, threads_);
+    for (int32_t v = first; v < m_.nv(); ++v) {
+      double longest = 0;
+      for (const int32_t* t = m_.star_begin(v); t != m_.star_end(v); ++t)
+        for (int j = 0; j < 4; ++j) {
+          double e[3];
+          detail::sub(m_.point(v), m_.point(m_.tet(*t)[j]), e);
+          longest = std::max(longest, detail::norm(e));
+        }
+      guard_->add_zone(m_.point(v), kZoneEdges * longest);
+    }
+  }
+  // Whether no guarded measure's worst over the mesh is now worse than in
+  // `saved` (alpha, the objective here, excepted: the caller compares it);
+  // when none is, the guards take the mesh's extremes.
+  bool extremes_no_worse(const Guard::Extremes& saved) {
+    if (!guard_) return true;
+    const auto t = Clock::now();
+    Guard now;
+    Guard::take(m_, threads_, now);
+    bool ok = true;
+    for (int k = 0; k < kTetMeasureCount && ok; ++k) {
+      const Measure mk = static_cast<Measure>(k);
+      if (mk != Measure::Alpha && worse(mk, now.extreme(mk), saved.worst[static_cast<size_t>(k)])) {
+        ok = false;
+        if (log_)
+          log_(LogLevel::Debug, std::string("worse than before: ") + measure_info(mk).key + " " +
+                                    std::to_string(now.extreme(mk)) + " against " +
+                                    std::to_string(saved.worst[static_cast<size_t>(k)]));
+      }
+    }
+    if (ok) {
+      Guard::take(m_, threads_, *guard_);
+      ++r_.guard_takes;
+    }
+    r_.seconds_check += since(t);
+    return ok;
   }
   PoorTally poor_tally(double below) { return {count_below(below), mean_alpha()}; }
   // The guards' extremes, to put back with the mesh they were taken from
@@ -850,7 +913,7 @@ class Driver {
   // pass or the polish.  About one measure pass over the tets each, taken
   // only when a tet holding an extreme has changed (Guard::stale).
   void refresh_guard() {
-    if (!guard_ || !guard_->stale(m_)) return;
+    if (!guard_ || guard_pinned_ || !guard_->stale(m_)) return;
     const auto t = Clock::now();
     Guard::take(m_, threads_, *guard_);
     ++r_.guard_takes;
@@ -904,6 +967,7 @@ class Driver {
   }
   static constexpr double kAtBound = 0.99;
   double bound_ = -1;  // worst_at_bound's mesh bound, once computed
+  bool guard_pinned_ = false;  // pin_guard
   // Whether the worst tet (the first of the smallest cached alpha) has a
   // vertex smoothing may move.  A worst tet with four constrained vertices
   // changes only by flips, which every round at the current gamma tried.
@@ -1091,6 +1155,59 @@ void at_bound_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, cons
                              (keep ? ", kept" : ", dropped"));
   if (!keep) plain.put_back(d, m, rep);
 }
+
+// Where the rounds once more stall with the worst tet's four vertices
+// constrained and no split of it lifting it by itself (split_locked),
+// a split that may lower its shell for a step (Driver::split_locked with
+// kForcedKeep), then a run of the rounds and the mean polish: kept only
+// where the run ends with a higher worst alpha and no guarded measure's
+// worst below the mesh's before the split (the split itself is not
+// guarded); otherwise the mesh, the report and the guards' extremes are
+// put back.  bp_g (a gmsh mesh of tests/data/gmsh/blade_passage.geo): the
+// worst tet stood on a floor triangle with its apex a vertex of the wall
+// above, 0.4829 of a 0.5875 bound; a probe's unguarded midpoint split of
+// one of its interior edges (new worst 0.37) and one run of tetopt gave
+// 0.5429 (thirtieth session).  The guards hold their extremes from before
+// the split during that run (Driver::pin_guard), except inside a ball of
+// kZoneEdges longest edges around each new vertex (Guard::add_zone), where
+// the split's tets are repaired: taking the extremes again after the split
+// instead let the rounds spend the split's slack anywhere (bp_g: a tet
+// 0.44 away from it ended with a minimum sine of 0.4459 against the
+// mesh's 0.4539 before, and the run was dropped); pinning them with no ball
+// left the split unrepaired.  The mean polish runs only on a kept run,
+// after the zones are gone (inside them it had lowered the worst alpha
+// to 0.4668).  Returns the worst alpha kept, or -1 when put back or when
+// nothing was split.
+constexpr double kForcedKeep = 0.5;
+double forced_split_stage(Driver& d, TetMesh& m, ImproveReport& rep, double gamma0, int threads, const LogFn& log,
+                          Status& status) {
+  const double before = d.score().first;
+  d.refresh_guard();
+  Saved plain{m, rep, d.guard_extremes()};
+  const int32_t first = m.nv();
+  if (d.split_locked(kForcedKeep) == 0) return -1;
+  d.pin_guard(plain.guard);
+  d.zone_new_vertices(first);
+  status = d.again(gamma0);
+  d.unpin_guard();
+  // Stopped in the middle (the caller's stop): the split may be unrepaired,
+  // and the copy from before it is the better mesh.
+  const bool keep = status && !d.stopped() && d.score().first > before && d.extremes_no_worse(plain.guard);
+  if (keep) {
+    ensure_vertex_tets(m, threads);
+    d.polish_mean(rep.before.alpha_mean, true);
+  }
+  const double after = d.score().first;
+  if (log)
+    log(LogLevel::Debug, "forced split then rounds: worst alpha " + std::to_string(before) + " -> " +
+                             std::to_string(after) + (keep ? ", kept" : ", dropped"));
+  if (!keep && status) {
+    plain.put_back(d, m, rep);
+    ensure_vertex_tets(m, threads);
+    return -1;
+  }
+  return after;
+}
 }  // namespace
 
 Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, const LogFn& log,
@@ -1197,9 +1314,19 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
           // in every insertion call of the rounds once more instead took
           // raw cylinder_hole h = 0.1 from 0.4572 to 0.4100 (twenty-ninth
           // session, docs/benchmarks.md).
-          if (run + 1 < kAgainRuns && w_next < kAgainBelow * ceiling && d.split_locked() > 0) {
-            w = d.score().first;
-            continue;
+          if (run + 1 < kAgainRuns && w_next < kAgainBelow * ceiling) {
+            if (d.split_locked() > 0) {
+              w = d.score().first;
+              continue;
+            }
+            // No split lifts it by itself: a forced one and a run (its own).
+            ++run;
+            const double w_forced = forced_split_stage(d, m, rep, Driver::best_trial_gammas(opt).front(),
+                                                       opt.threads, log, run_status);
+            if (w_forced > w_next * (1 + kAgainGain) && run_status && !d.stopped()) {
+              w = w_forced;
+              continue;
+            }
           }
           break;
         }

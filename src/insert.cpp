@@ -33,24 +33,31 @@ constexpr size_t kStarMax = 128;
 // first, then at 0.3 and 0.7 of them (screw_graded, unguarded: a tet on
 // the screw's end face took a split at 0.7 only, 0.4295 -> 0.4448 for the
 // mesh; the guards refuse it there, for its mean ratio).
-static bool split_locked(TopoEditor& ed, int32_t t, double margin) {
+// forced (0 < forced < 1, with no guard): a split that lifts t first, as
+// above, else one whose new tets keep forced times t's alpha.
+static bool split_locked(TopoEditor& ed, int32_t t, double margin, double forced) {
   Acceptance acc;
   acc.on = true;
-  acc.floor = ed.cached_alpha(t) + margin;
   acc.ratio = 0;
-  for (const double wa : {0.5, 0.3, 0.7})
-    for (int le = 0; le < 6; ++le)
-      if (ed.split_edge(t, le, acc, wa) == TopoResult::Applied) return true;
+  const double a = ed.cached_alpha(t);
+  for (const double floor : {a + margin, forced * a}) {
+    if (!(floor > 0)) break;
+    acc.floor = floor;
+    for (const double wa : {0.5, 0.3, 0.7})
+      for (int le = 0; le < 6; ++le)
+        if (ed.split_edge(t, le, acc, wa) == TopoResult::Applied) return true;
+  }
   return false;
 }
 
-int64_t split_locked_worst(TetMesh& m, const InsertOptions& o) {
+int64_t split_locked_worst(TetMesh& m, const InsertOptions& o, double forced) {
   if (!topology_current(m) && !build_topology(m)) return 0;
   ensure_vertex_tets(m);
+  const bool force = forced > 0 && forced < 1;
   TopoOptions to;
   to.margin = o.margin;
   to.objective = o.objective;
-  to.guard = o.guard;
+  to.guard = force ? nullptr : o.guard;
   TopoEditor ed(m, to);
   double worst = INFINITY;
   for (int32_t t = 0; t < m.nt(); ++t) worst = std::min(worst, ed.cached_alpha(t));
@@ -62,7 +69,7 @@ int64_t split_locked_worst(TetMesh& m, const InsertOptions& o) {
   // slot is tried only while it still holds a locked tet at the worst.
   for (const int32_t t : work)
     if (ed.alive(t) && m.tet_kind[t] == 4 && ed.cached_alpha(t) <= worst + o.margin &&
-        split_locked(ed, t, o.margin))
+        split_locked(ed, t, o.margin, force ? forced : 0))
       ++n;
   ed.finish();
   return n;

@@ -25,6 +25,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <vector>
 
 #include "tetopt/measures.hpp"
 
@@ -94,6 +95,16 @@ class Guard {
     exempt(k);
   }
 
+  /// Balls inside which the guard looks away: a tet with a vertex inside
+  /// one is admitted whatever its measures (and its slack is +inf).
+  /// improve.cpp's forced split: the split's tets, which the guard did not
+  /// see, are repaired there by the rounds while every tet elsewhere stays
+  /// guarded, and the run is kept only where the mesh's extremes end no
+  /// worse.  A few balls at most (each admits() call tests them all).
+  void add_zone(const double* c, double r);
+  void clear_zones() { zones_.clear(); }
+  bool has_zones() const { return !zones_.empty(); }
+
   /// Whether a tet that held an extreme when they were taken has changed
   /// since (its slot holds other vertices, or one of them moved): only then
   /// can an extreme have improved, since every tet created meanwhile was
@@ -130,6 +141,12 @@ class Guard {
   std::array<bool, kTetMeasureCount> exempt_{};
   std::array<Holder, kTetMeasureCount> holder_{};
   double sine_enough_ = 2;  // sine_min at or above this proves both dihedral extremes
+  struct Zone {
+    double c[3];
+    double r2;
+  };
+  std::vector<Zone> zones_;
+  bool in_zone(const double* a, const double* b, const double* c, const double* d) const;
   bool has_floor_ = false;
   std::array<double, kTetMeasureCount> floor_{};
   void apply_floor_and_sine();

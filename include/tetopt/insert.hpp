@@ -109,7 +109,14 @@ InsertStats insert_pass(TetMesh& m, const InsertOptions& o = {}, const LogFn& lo
 /// alpha gets that split, the first such in that order and local edge
 /// order, leaving a free vertex there.  Uses
 /// o.margin, o.objective and o.guard; returns the number split.
-int64_t split_locked_worst(TetMesh& m, const InsertOptions& o = {});
+///
+/// With 0 < forced < 1 a split need not lift the tet: the first whose new
+/// tets all keep at least forced times the tet's alpha is taken, with no
+/// guard, for a caller that runs the rounds after it and keeps their result
+/// only where it ends higher on alpha and no worse on every guarded measure
+/// (improve(): the tet's new free vertex needs the smoothing of its
+/// neighbours, and their flips, before the shell can rise).
+int64_t split_locked_worst(TetMesh& m, const InsertOptions& o = {}, double forced = 0);
 
 /// The interior remesher's refinement and coarsening (issue 27), the logic
 /// of MMG's -optim on a size field (Dapogny, Dobrzynski & Frey 2014, "Three-

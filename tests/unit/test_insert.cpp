@@ -619,6 +619,35 @@ TEST(Insert, SplitLockedWorstGivesTheWorstTetAFreeVertex) {
   expect_same_mesh(box0, box);
 }
 
+// split_locked_worst with `forced`: under guards taken on a mesh of far
+// better tets (a regular box), no split of the slab's worst tet passes and
+// the plain call changes nothing; the forced call ignores the guards and
+// splits, its new tets keeping half the tet's alpha at least, the promise
+// kept.  improve() runs the rounds after such a split and keeps them only
+// where the guarded measures end no worse (script.test_forced_split).
+TEST(Insert, ForcedLockedSplitIgnoresTheGuardsAndKeepsHalfTheAlpha) {
+  TetMesh m = jittered_slab();
+  const TetMesh before = m;
+  const double w0 = worst(m);
+  BoxMeshOptions bo;
+  bo.nx = bo.ny = bo.nz = 2;
+  bo.jitter = 0;
+  TetMesh good = make_box_mesh(bo);
+  ASSERT_TRUE(build_topology(good).ok());
+  Guard g;
+  Guard::take(good, 1, g);
+  ASSERT_GT(g.extreme(Measure::Alpha), 1.5 * w0);  // 0.59 against 0.37
+  InsertOptions io;
+  io.guard = &g;
+  EXPECT_EQ(split_locked_worst(m, io), 0);
+  expect_same_mesh(before, m);
+  const int64_t split = split_locked_worst(m, io, 0.5);
+  EXPECT_GT(split, 0);
+  EXPECT_EQ(m.nv(), before.nv() + split);
+  EXPECT_GE(worst(m), 0.5 * w0);
+  expect_promise(before, m, 0.5 * w0);
+}
+
 namespace {
 
 // The per-vertex sizes remesh_pass's size field starts from: the mean length

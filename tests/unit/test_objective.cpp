@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <random>
+#include <limits>
 #include <vector>
 
 #include "tetopt/face_pass.hpp"
@@ -103,6 +104,31 @@ TEST(Guard, AdmitsTheMeshOwnTetsAndRefusesAWorseOne) {
   EXPECT_FALSE(g.admits(a, b, c, d));
   EXPECT_EQ(g.refused(Measure::Alpha), 1);
   EXPECT_EQ(g.refused_total(), 2);
+}
+
+// Guard::add_zone (improve.cpp's forced split): a tet with a vertex inside
+// a zone is admitted whatever its measures, with an infinite slack; the
+// same tet outside every zone is refused again once they are cleared.
+TEST(Guard, ZonesAdmitWhatTouchesThemOnly) {
+  TetMesh m = box(4, 0.3, 3);
+  Guard g;
+  Guard::take(m, 1, g);
+  const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, c[3] = {0, 1, 0}, d[3] = {0.3, 0.3, 0.01};
+  ASSERT_FALSE(g.admits(a, b, c, d));
+  ASSERT_LT(g.slack(a, b, c, d), 0);
+  const int64_t refused = g.refused_total();
+  const double far[3] = {5, 5, 5};
+  g.add_zone(far, 1.0);  // no vertex of the sliver within 1 of (5, 5, 5)
+  EXPECT_TRUE(g.has_zones());
+  EXPECT_FALSE(g.admits(a, b, c, d));
+  const double near_b[3] = {1.2, 0.1, 0};
+  g.add_zone(near_b, 0.5);  // b is 0.22 from it
+  EXPECT_TRUE(g.admits(a, b, c, d));
+  EXPECT_EQ(g.slack(a, b, c, d), std::numeric_limits<double>::infinity());
+  EXPECT_EQ(g.refused_total(), refused + 1);  // the refusal with the far zone only
+  g.clear_zones();
+  EXPECT_FALSE(g.has_zones());
+  EXPECT_FALSE(g.admits(a, b, c, d));
 }
 
 TEST(Guard, StaleOnlyWhenATetHoldingAnExtremeChanged) {
