@@ -23,20 +23,11 @@ referee "$T/bp_g.mesh" "$T/ins.mesh" ins
 [ "$have_ref" = 1 ] && echo "referee: the output keeps the boundary, no inverted tet, volumes kept"
 "$CLI" quality "$T/ins.mesh" --json > "$T/q.json"
 
+reaches "$T/ins.json" 0.53
 "$PY" - "$T" <<'PYEOF'
 import json, sys
 d = sys.argv[1]
 def fail(msg): print("FAIL:", msg); sys.exit(1)
-ins = json.load(open(f"{d}/ins.json"))
-b = ins["boundary_unchanged"]
-if not (b["checked"] and b["ok"]): fail(f"boundary_unchanged {b}")
-bound = ins["diagnosis"]["bound"]["alpha_upper_bound"]
-a = ins["after"]
-print("input %d tets worst %.4f | insertion %d tets worst %.4f mean %.4f | bound %.4f (%.0f%%)" % (
-    ins["before"]["tets"], ins["before"]["alpha_worst"], a["tets"], a["alpha_worst"], a["alpha_mean"], bound,
-    100 * a["alpha_worst"] / bound))
-if not a["alpha_worst"] >= 0.53: fail(f"worst alpha {a['alpha_worst']:.4f} < 0.53")
-if not a["alpha_worst"] <= bound + 1e-9: fail("worst alpha above the bound")
 # The build before (0f9b5f3) on this mesh: worst of each measure.
 before = {"sine_min": 0.4539, "dihedral_min": 26.99, "dihedral_max": 132.39, "scaled_jacobian": 0.2796,
           "radius_ratio": 0.5226, "mean_ratio": 0.6390, "equivolume_skewness": 0.7569}
