@@ -3,7 +3,8 @@
 # to cores 0,1, the builds alternated REPS times; prints medians and minima of
 # the whole process (wall) and of the improve call (the report's
 # seconds.total), and the 1 -> 2 thread ratios.  (bench/threads_ab.sh also
-# times `quality` on the 3M box; this one takes any mesh.)
+# times `quality` on the 3M box; this one takes any mesh.)  EXTRA: more
+# improve options for both builds (EXTRA="--allow-insert --allow-remove").
 # usage: bench/improve_ab.sh OLD_TETOPT NEW_TETOPT REPS MESH
 set -u
 OLD=$1; NEW=$2; REPS=$3; MESH=$4
@@ -12,7 +13,7 @@ ext=${MESH##*.}
 for i in $(seq "$REPS"); do for b in "$OLD" "$NEW"; do
   tag=$([ "$b" = "$OLD" ] && echo old || echo new)
   for t in 1 2; do
-    s=$( { /usr/bin/time -f "%e" taskset -c 0,1 "$b" improve "$MESH" -o "$W/o.$ext" --threads $t -q --report "$W/r.json"; } 2>&1 | tail -1)
+    s=$( { /usr/bin/time -f "%e" taskset -c 0,1 "$b" improve "$MESH" -o "$W/o.$ext" --threads $t -q --report "$W/r.json" ${EXTRA:-}; } 2>&1 | tail -1)
     echo "whole $tag t$t $s"
     echo "improve $tag t$t $(/usr/bin/python3 -c "import json; print(json.load(open('$W/r.json'))['seconds']['total'])")"
   done
