@@ -10,8 +10,8 @@ set -u
 OLD=$1; NEW=$2; REPS=$3; MESH=$4
 W=$(mktemp -d); trap 'rm -rf "$W"' EXIT
 ext=${MESH##*.}
-for i in $(seq "$REPS"); do for b in "$OLD" "$NEW"; do
-  tag=$([ "$b" = "$OLD" ] && echo old || echo new)
+for i in $(seq "$REPS"); do for tag in old new; do
+  b=$([ "$tag" = old ] && echo "$OLD" || echo "$NEW")  # one binary may be both sides
   for t in 1 2; do
     s=$( { /usr/bin/time -f "%e" taskset -c 0,1 "$b" improve "$MESH" -o "$W/o.$ext" --threads $t -q --report "$W/r.json" ${EXTRA:-}; } 2>&1 | tail -1)
     echo "whole $tag t$t $s"
