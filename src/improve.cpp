@@ -358,6 +358,7 @@ class Driver {
       const auto t = Clock::now();
       RelaxOptions ro;
       ro.guard = guard_;
+      ro.threads = threads_;
       const RelaxStats rs = relax_pass(m_, ro, sub_log_);
       alpha_.clear();
       r_.smooth_moves += rs.moves;

@@ -300,6 +300,7 @@ RelaxStats relax_pass(TetMesh& m, const RelaxOptions& o, const LogFn& log) {
     to.quality_threshold = o.flip_threshold;
     to.passes = 1;
     to.guard = o.guard;
+    to.threads = o.threads;
     const TopoStats ts = flip_pass(m, to);
     if (!ts.status) {
       st.status = ts.status;

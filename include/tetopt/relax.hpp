@@ -67,6 +67,10 @@ struct RelaxOptions {
   double trigger_fraction = 0.25;  ///< relax_wanted: fraction of tets with alpha < 0.1
   double min_gain = 1e-3;       ///< stop when a round raises the mean alpha by less than this
   const Guard* guard = nullptr;  ///< guards (guard.hpp) for the moves and flips; nullptr: none
+  /// Threads of the flip passes (TopoOptions::threads: their options are
+  /// planned in parallel and committed in order, the same flips for every
+  /// count); the Jacobi steps run on one.
+  int threads = 1;
 };
 
 struct RelaxStats {

@@ -175,6 +175,31 @@ TEST(RelaxTest, TriggerIgnoresGoodMeshes) {
   EXPECT_FALSE(relax_wanted(m));
 }
 
+// RelaxOptions::threads runs the flip passes' planning in parallel: the
+// mesh after the pass is the same, bit for bit, for every thread count.
+TEST(RelaxTest, TheSameMeshForEveryThreadCount) {
+  const TetMesh m0 = [] {
+    TetMesh m = lazy_random_cube(1500, 5);
+    EXPECT_TRUE(build_topology(m).ok());
+    return m;
+  }();
+  RelaxOptions o;
+  o.rounds = 4;
+  TetMesh one = m0;
+  const RelaxStats s1 = relax_pass(one, o);
+  ASSERT_TRUE(s1.status.ok());
+  ASSERT_GT(s1.flips, 0);
+  for (int threads : {2, 3, 0}) {
+    TetMesh m = m0;
+    o.threads = threads;
+    const RelaxStats st = relax_pass(m, o);
+    ASSERT_TRUE(st.status.ok());
+    EXPECT_EQ(st.flips, s1.flips) << threads << " threads";
+    EXPECT_EQ(m.tets, one.tets) << threads << " threads";
+    EXPECT_EQ(m.xyz, one.xyz) << threads << " threads";
+  }
+}
+
 TEST(RelaxTest, BadFractionIsTheSameForEveryThreadCount) {
   // Several blocks of 8192 tets, so the threads split the count.
   BoxMeshOptions bo;
