@@ -785,59 +785,53 @@ class Driver {
                                 std::to_string(n));
     return n;
   }
-  // The guards hold these extremes, not taken again until unpinned
-  // (forced_split_stage: the extremes from before a split the guards did
-  // not see, while the rounds repair it).
-  void pin_guard(const Guard::Extremes& e) {
+  // The guards hold these extremes, not taken again until unpinned, and
+  // look away inside a ball of kZoneEdges longest edges of its star around
+  // each vertex from `zoned_from` on (Guard::add_zone; forced_split_stage:
+  // the extremes from before a split the guards did not see, while the
+  // rounds repair its tets).
+  void pin_guard(const Guard::Extremes& e, int32_t zoned_from) {
     if (!guard_) return;
     guard_->restore(e);
     guard_pinned_ = true;
+    ensure_vertex_tets(m_, threads_);
+    for (int32_t v = zoned_from; v < m_.nv(); ++v) {
+      double longest = 0;
+      for (const int32_t* t = m_.star_begin(v); t != m_.star_end(v); ++t)
+        for (int j = 0; j < 4; ++j) {
+          double edge[3];
+          detail::sub(m_.point(v), m_.point(m_.tet(*t)[j]), edge);
+          longest = std::max(longest, detail::norm(edge));
+        }
+      guard_->add_zone(m_.point(v), kZoneEdges * longest);
+    }
   }
   void unpin_guard() {
     guard_pinned_ = false;
     if (guard_) guard_->clear_zones();
   }
-  // A zone of the guards (Guard::add_zone) around each vertex from `first`
-  // on: kZoneEdges times the longest edge of its star.
-  void zone_new_vertices(int32_t first) {
-    if (!guard_) return;
-    ensure_vertex_tets(m_, threads_);
-    for (int32_t v = first; v < m_.nv(); ++v) {
-      double longest = 0;
-      for (const int32_t* t = m_.star_begin(v); t != m_.star_end(v); ++t)
-        for (int j = 0; j < 4; ++j) {
-          double e[3];
-          detail::sub(m_.point(v), m_.point(m_.tet(*t)[j]), e);
-          longest = std::max(longest, detail::norm(e));
-        }
-      guard_->add_zone(m_.point(v), kZoneEdges * longest);
-    }
-  }
-  // Whether no guarded measure's worst over the mesh is now worse than in
-  // `saved` (alpha, the objective here, excepted: the caller compares it);
-  // when none is, the guards take the mesh's extremes.
+  // The guards take the mesh's extremes; returns whether none of them but
+  // alpha's (the objective here: the caller compares it) is worse than in
+  // `saved`.  Where it is, the caller puts back the mesh `saved` came with
+  // (Saved::put_back restores the extremes too).  Both are floored alike
+  // (Guard::set_floor): a fall below the floor is one the guards allow.
   bool extremes_no_worse(const Guard::Extremes& saved) {
     if (!guard_) return true;
     const auto t = Clock::now();
-    Guard now;
-    Guard::take(m_, threads_, now);
-    bool ok = true;
-    for (int k = 0; k < kTetMeasureCount && ok; ++k) {
+    Guard::take(m_, threads_, *guard_);
+    ++r_.guard_takes;
+    r_.seconds_check += since(t);
+    for (int k = 0; k < kTetMeasureCount; ++k) {
       const Measure mk = static_cast<Measure>(k);
-      if (mk != Measure::Alpha && worse(mk, now.extreme(mk), saved.worst[static_cast<size_t>(k)])) {
-        ok = false;
+      const double was = saved.worst[static_cast<size_t>(k)];
+      if (mk != Measure::Alpha && worse(mk, guard_->extreme(mk), was)) {
         if (log_)
           log_(LogLevel::Debug, std::string("worse than before: ") + measure_info(mk).key + " " +
-                                    std::to_string(now.extreme(mk)) + " against " +
-                                    std::to_string(saved.worst[static_cast<size_t>(k)]));
+                                    std::to_string(guard_->extreme(mk)) + " against " + std::to_string(was));
+        return false;
       }
     }
-    if (ok) {
-      Guard::take(m_, threads_, *guard_);
-      ++r_.guard_takes;
-    }
-    r_.seconds_check += since(t);
-    return ok;
+    return true;
   }
   PoorTally poor_tally(double below) { return {count_below(below), mean_alpha()}; }
   // The guards' extremes, to put back with the mesh they were taken from
@@ -1169,8 +1163,8 @@ void at_bound_stage(Driver& d, TetMesh& m, ImproveReport& rep, int threads, cons
 // above, 0.4829 of a 0.5875 bound; a probe's unguarded midpoint split of
 // one of its interior edges (new worst 0.37) and one run of tetopt gave
 // 0.5429 (thirtieth session).  The guards hold their extremes from before
-// the split during that run (Driver::pin_guard), except inside a ball of
-// kZoneEdges longest edges around each new vertex (Guard::add_zone), where
+// the split during that run, except inside a ball of kZoneEdges longest
+// edges around each new vertex (Driver::pin_guard, Guard::add_zone), where
 // the split's tets are repaired: taking the extremes again after the split
 // instead let the rounds spend the split's slack anywhere (bp_g: a tet
 // 0.44 away from it ended with a minimum sine of 0.4459 against the
@@ -1187,8 +1181,7 @@ double forced_split_stage(Driver& d, TetMesh& m, ImproveReport& rep, double gamm
   Saved plain{m, rep, d.guard_extremes()};
   const int32_t first = m.nv();
   if (d.split_locked(kForcedKeep) == 0) return -1;
-  d.pin_guard(plain.guard);
-  d.zone_new_vertices(first);
+  d.pin_guard(plain.guard, first);
   status = d.again(gamma0);
   d.unpin_guard();
   // Stopped in the middle (the caller's stop): the split may be unrepaired,
