@@ -34,6 +34,8 @@ functions
     coeffs { type forceCoeffs; libs ("libforces.so"); writeControl timeStep; writeInterval 1; log false;
       patches (patch4); rho rhoInf; rhoInf 1; CofR (0 0 0); liftDir (0 0 1); dragDir (1 0 0); pitchAxis (0 1 0);
       magUInf 1; lRef 1.2; Aref 0.197; }
+    forces { type forces; libs ("libforces.so"); writeControl timeStep; writeInterval 1; log false;
+      patches (patch4); rho rhoInf; rhoInf 1; CofR (0 0 0); }
 }
 EOF
   cat > "$dir/system/fvSchemes" <<EOF
@@ -109,6 +111,10 @@ foam_summary() {
   rc=$(cat "$dir/solve.rc" 2> /dev/null || echo 1)
   cd=$(awk '!/^#/ { c = $2 } END { print c }' "$dir"/postProcessing/coeffs/0/coefficient.dat 2> /dev/null)
   secs=$(cat "$dir/solve.seconds" 2> /dev/null)
+  # The drag's pressure and viscous parts (x of forces.dat's second and
+  # third vectors), as coefficients.
+  local parts
+  parts=$(awk '!/^#/ { l = $0 } END { gsub(/[()]/, " ", l); split(l, f, " "); printf "Cd_pressure=%.4f Cd_viscous=%.4f", f[5] / (0.5 * 0.197), f[8] / (0.5 * 0.197) }' "$dir"/postProcessing/forces/0/force.dat 2> /dev/null)
   if [ -n "$conv" ] && [ "$rc" = 0 ]; then state="converged=$conv"; else state="diverged=$last rc=$rc"; fi
-  echo "cells=${cells:-?} nonorth_max=${nonorth:-?} severe_nonorth=${severe:-0} skewness_max=${skew:-?} mesh_ok=$ok $state Cd=${cd:-?} solve_s=${secs:-?}"
+  echo "cells=${cells:-?} nonorth_max=${nonorth:-?} severe_nonorth=${severe:-0} skewness_max=${skew:-?} mesh_ok=$ok $state Cd=${cd:-?} ${parts:-Cd_pressure=? Cd_viscous=?} solve_s=${secs:-?}"
 }

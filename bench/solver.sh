@@ -12,8 +12,10 @@
 # through OpenFOAM (bench/foam_case.sh): tetopt convert to a polyMesh,
 # checkMesh, and simpleFoam, laminar at Reynolds number 120.  A row says
 # whether the solve converged (and in how many SIMPLE iterations) or
-# diverged, and the drag coefficient it ended with.  The reference drag is
-# gmsh's mesh of the same geometry at S/2 (REF=0 skips it: a minute or more).
+# diverged, and the drag coefficient it ended with (its pressure and
+# viscous parts).  The last rows of each size: gmsh's mesh of the same
+# geometry at S/2 (the reference drag), and that mesh after tetopt's
+# default mode and after --mode smooth (REF=0 skips them: minutes).
 # tetopt's outputs are judged by ../shared/tools/meshcheck.py compare when
 # present; MMG's are listed as they are (it may move boundary vertices).
 #   usage: bench/solver.sh BUILD_DIR [OUT_DIR]    SIZES="1 0.5" (default)
@@ -53,7 +55,7 @@ name, w, s, verdict, summary = sys.argv[1:]
 d = dict(kv.split("=", 1) for kv in summary.split())
 solve = ("converged in %s" % d["converged"]) if "converged" in d else ("**diverged** at %s" % d["diverged"])
 num = lambda k, f: f % float(d[k]) if d[k] != "?" else "?"
-cd = num("Cd", "%.3f") if "converged" in d else "-"
+cd = (num("Cd", "%.3f") + " (" + d["Cd_pressure"] + " + " + d["Cd_viscous"] + ")") if "converged" in d else "-"
 print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
     name, d["cells"], w, s, verdict, num("nonorth_max", "%.1f"), d["severe_nonorth"], num("skewness_max", "%.2f"),
     "yes" if d["mesh_ok"] == "1" else "no", solve, cd, d["solve_s"]))
@@ -62,7 +64,7 @@ EOF
 {
   echo "# bench/solver.sh, $(date -u +%Y-%m-%d\ %H:%M) UTC, tetopt $(git -C "$ROOT" rev-parse --short HEAD 2> /dev/null)"
   echo
-  echo "| mesh | cells | worst α | improver s | referee | max non-orth (°) | faces > 70° | max skewness (checkMesh) | Mesh OK | simpleFoam (SIMPLE iterations) | Cd | solve s |"
+  echo "| mesh | cells | worst α | improver s | referee | max non-orth (°) | faces > 70° | max skewness (checkMesh) | Mesh OK | simpleFoam (SIMPLE iterations) | Cd (pressure + viscous) | solve s |"
   echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 } > "$MD"
 for S in ${SIZES:-1 0.5}; do
@@ -99,6 +101,16 @@ for S in ${SIZES:-1 0.5}; do
     r=ref_s$(echo "$R" | tr . p)
     [ -f "$OUT/$r.mesh" ] || gmsh -3 -nt 1 -setnumber s "$R" -format mesh "$GEO" -o "$OUT/$r.mesh" > /dev/null 2>&1
     row "${r}_gmsh" "$OUT/$r.mesh" "" ""
+    # The reference mesh through tetopt: the default mode's rounds and
+    # flips, and its smoothing alone (--mode smooth).
+    for mode in def smooth; do
+      extra=""; [ $mode = smooth ] && extra="--mode smooth"
+      o=$OUT/${r}_gmsh_$mode.mesh
+      t0=$(date +%s.%N)
+      "$T" improve "$OUT/$r.mesh" -o "$o" -q $extra
+      t1=$(date +%s.%N)
+      row "${r}_gmsh_$mode" "$o" "$(secs "$t0" "$t1")" "$(referee "$OUT/$r.mesh" "$o")"
+    done
   fi
 done
 cat "$MD"
