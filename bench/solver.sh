@@ -15,7 +15,8 @@
 # diverged, the drag coefficient it ended with (its pressure and viscous
 # parts), and the error of OpenFOAM's Laplacian on the mesh
 # (bench/foam_laplace.py: a harmonic function imposed on the boundary,
-# laplacianFoam, RMS of the cell error over the largest value).  The last
+# laplacianFoam, RMS of the cell error over the largest value) and of
+# CalculiX's linear tets on the same problem (bench/ccx_laplace.py).  The last
 # rows of each size: gmsh's mesh of the same geometry at S/2 (the reference
 # drag), and that mesh after tetopt's default mode and after --mode smooth
 # (REF=0 skips them: minutes).
@@ -47,7 +48,7 @@ secs() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", b - a }'; }
 # row NAME MESH SECONDS VERDICT
 row() {
   local name=$1 mesh=$2 s=$3 verdict=$4 case=$OUT/case_$1
-  foam_case "$mesh" "$case" "$T" || { echo "| $name | - | $(worst "$mesh") | $s | $verdict | tetopt convert failed | | | | | | | |" >> "$MD"; return; }
+  foam_case "$mesh" "$case" "$T" || { echo "| $name | - | $(worst "$mesh") | $s | $verdict | tetopt convert failed | | | | | | | | |" >> "$MD"; return; }
   foam_run "$case"
   local sum lap=-
   sum=$(foam_summary "$case")
@@ -57,6 +58,12 @@ row() {
     lap=$("$PY" "$ROOT/bench/foam_laplace.py" error "${case}_laplace" | sed 's/.*laplace_rms=\([^ ]*\).*/\1/')
   fi
   sum="$sum laplace_rms=$lap"
+  # The same with CalculiX's linear tets (bench/ccx_laplace.py), when ccx is there.
+  local fem=-
+  if command -v ccx > /dev/null; then
+    fem=$("$PY" "$ROOT/bench/ccx_laplace.py" "$mesh" "${case}_ccx" 2> /dev/null | sed -n 's/.*fem_rms=\([^ ]*\).*/\1/p')
+  fi
+  sum="$sum fem_rms=${fem:--}"
   echo "$name $sum" >&2
   "$PY" - "$name" "$(worst "$mesh")" "$s" "$verdict" "$sum" >> "$MD" <<'EOF'
 import sys
@@ -65,16 +72,16 @@ d = dict(kv.split("=", 1) for kv in summary.split())
 solve = ("converged in %s" % d["converged"]) if "converged" in d else ("**diverged** at %s" % d["diverged"])
 num = lambda k, f: f % float(d[k]) if d[k] != "?" else "?"
 cd = (num("Cd", "%.3f") + " (" + d["Cd_pressure"] + " + " + d["Cd_viscous"] + ")") if "converged" in d else "-"
-print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+print("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
     name, d["cells"], w, s, verdict, num("nonorth_max", "%.1f"), d["severe_nonorth"], num("skewness_max", "%.2f"),
-    "yes" if d["mesh_ok"] == "1" else "no", solve, cd, d["solve_s"], d["laplace_rms"]))
+    "yes" if d["mesh_ok"] == "1" else "no", solve, cd, d["solve_s"], d["laplace_rms"], d["fem_rms"]))
 EOF
 }
 {
   echo "# bench/solver.sh, $(date -u +%Y-%m-%d\ %H:%M) UTC, tetopt $(git -C "$ROOT" rev-parse --short HEAD 2> /dev/null)"
   echo
-  echo "| mesh | cells | worst α | improver s | referee | max non-orth (°) | faces > 70° | max skewness (checkMesh) | Mesh OK | simpleFoam (SIMPLE iterations) | Cd (pressure + viscous) | solve s | Laplacian error (RMS) |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+  echo "| mesh | cells | worst α | improver s | referee | max non-orth (°) | faces > 70° | max skewness (checkMesh) | Mesh OK | simpleFoam (SIMPLE iterations) | Cd (pressure + viscous) | solve s | Laplacian error (RMS) | FEM error, ccx (RMS) |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 } > "$MD"
 for S in ${SIZES:-1 0.5}; do
   n=s$(echo "$S" | tr . p)
