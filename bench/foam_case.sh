@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
-# Sourced by bench/solver.sh and tests/scripts/test_simplefoam.sh: an
-# OpenFOAM case for a mesh of tests/data/gmsh/flow_box.geo, solved by
-# Debian's OpenFOAM (v1912).
+# Sourced by bench/solver.sh, tests/scripts/test_simplefoam.sh and
+# test_fem_accuracy.sh: meshes of tests/data/gmsh/flow_box.geo and an
+# OpenFOAM case for them, solved by Debian's OpenFOAM (v1912).
 #
+#   flow_box_raw S OUT TETOPT   raw `tetgen -pQ` output of the geometry at
+#                               size factor S (gmsh's surface, the body a
+#                               hole: mesh_to_smesh.py) as OUT (.mesh);
+#                               scratch files beside it
 #   foam_case MESH DIR TETOPT   writes DIR (system/, constant/, 0/) with
 #                               MESH as constant/polyMesh (tetopt convert)
 #   foam_run DIR                checkMesh, then simpleFoam, in DIR
 #   foam_summary DIR            one line: key=value for what they said
+#   foam_laplace MESH DIR TETOPT  the Laplacian's error on MESH
+#                               (bench/foam_laplace.py), its one line
 #
 # The flow: laminar, steady, nu = 0.01, 1 m/s at the inlet (patch1), p = 0
 # at the outlet (patch2), slip on the box's sides (patch3), no slip on the
@@ -14,9 +20,11 @@
 # the settings of OpenFOAM's own steady tutorials (p 0.3, U 0.7, GAMG for p,
 # linearUpwind for U) and one non-orthogonal corrector, as tetrahedral meshes
 # are usually run; it stops at initial residuals p 1e-4, U 1e-5 or after
-# 1,500 iterations.  The drag coefficient comes from the forceCoeffs
-# function object (reference area 0.197: the ellipsoid's frontal area
-# pi 0.24^2 plus the fin's 0.04 x 0.4).
+# 1,500 iterations.  The drag coefficient and its pressure and viscous parts
+# come from the forces function object's x forces over 0.5 rho U^2 A, with
+# A = 0.197 (the ellipsoid's frontal area pi 0.24^2 plus the fin's 0.04 x
+# 0.4; what forceCoeffs would divide by).
+FOAM_BENCH=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 foam() { ( set +u; export WM_PROJECT_DIR=/usr/share/openfoam; . /usr/share/openfoam/etc/bashrc > /dev/null 2>&1; "$@" ) ; }
 
 foam_case() {
@@ -31,9 +39,6 @@ application simpleFoam; startFrom startTime; startTime 0; stopAt endTime; endTim
 writeControl timeStep; writeInterval 100000; writeFormat binary; writePrecision 10; runTimeModifiable false;
 functions
 {
-    coeffs { type forceCoeffs; libs ("libforces.so"); writeControl timeStep; writeInterval 1; log false;
-      patches (patch4); rho rhoInf; rhoInf 1; CofR (0 0 0); liftDir (0 0 1); dragDir (1 0 0); pitchAxis (0 1 0);
-      magUInf 1; lRef 1.2; Aref 0.197; }
     forces { type forces; libs ("libforces.so"); writeControl timeStep; writeInterval 1; log false;
       patches (patch4); rho rhoInf; rhoInf 1; CofR (0 0 0); }
 }
@@ -97,10 +102,11 @@ foam_run() {
 # cells, checkMesh's largest non-orthogonality and skewness, its faces above
 # 70 degrees, "Mesh OK." (ok=1), simpleFoam's iterations to its residual
 # control (converged=N) or the last iteration it reached (diverged=N, with
-# its exit status), the last drag coefficient, the solve's wall seconds.
+# its exit status), the drag coefficient with its pressure and viscous
+# parts at the last iteration, the solve's wall seconds.
 foam_summary() {
   local dir=$1
-  local cells nonorth severe skew ok conv last rc cd secs
+  local cells nonorth severe skew ok conv last rc secs state
   cells=$(awk '/^ *cells:/ { print $2; exit }' "$dir/check.log")
   nonorth=$(awk '/Mesh non-orthogonality Max/ { print $4; exit }' "$dir/check.log")
   severe=$(grep -o 'severely non-orthogonal (> 70 degrees) faces: [0-9]*' "$dir/check.log" | awk '{ print $NF }')
@@ -109,12 +115,27 @@ foam_summary() {
   conv=$(grep -o 'SIMPLE solution converged in [0-9]* iterations' "$dir/solve.log" | awk '{ print $5 }')
   last=$(awk '/^Time = / { t = $3 } END { print t + 0 }' "$dir/solve.log")
   rc=$(cat "$dir/solve.rc" 2> /dev/null || echo 1)
-  cd=$(awk '!/^#/ { c = $2 } END { print c }' "$dir"/postProcessing/coeffs/0/coefficient.dat 2> /dev/null)
   secs=$(cat "$dir/solve.seconds" 2> /dev/null)
-  # The drag's pressure and viscous parts (x of forces.dat's second and
-  # third vectors), as coefficients.
+  # The drag and its pressure and viscous parts: x of forces.dat's three
+  # vectors (total, pressure, viscous) over 0.5 rho U^2 A.
   local parts
-  parts=$(awk '!/^#/ { l = $0 } END { gsub(/[()]/, " ", l); split(l, f, " "); printf "Cd_pressure=%.4f Cd_viscous=%.4f", f[5] / (0.5 * 0.197), f[8] / (0.5 * 0.197) }' "$dir"/postProcessing/forces/0/force.dat 2> /dev/null)
+  parts=$(awk '!/^#/ { l = $0 } END { gsub(/[()]/, " ", l); split(l, f, " "); q = 0.5 * 0.197
+                 printf "Cd=%.10g Cd_pressure=%.4f Cd_viscous=%.4f", f[2] / q, f[5] / q, f[8] / q }' \
+            "$dir"/postProcessing/forces/0/force.dat 2> /dev/null)
   if [ -n "$conv" ] && [ "$rc" = 0 ]; then state="converged=$conv"; else state="diverged=$last rc=$rc"; fi
-  echo "cells=${cells:-?} nonorth_max=${nonorth:-?} severe_nonorth=${severe:-0} skewness_max=${skew:-?} mesh_ok=$ok $state Cd=${cd:-?} ${parts:-Cd_pressure=? Cd_viscous=?} solve_s=${secs:-?}"
+  echo "cells=${cells:-?} nonorth_max=${nonorth:-?} severe_nonorth=${severe:-0} skewness_max=${skew:-?} mesh_ok=$ok $state ${parts:-Cd=? Cd_pressure=? Cd_viscous=?} solve_s=${secs:-?}"
+}
+
+flow_box_raw() {
+  local s=$1 out=$2 tetopt=$3 b=${2%.mesh}
+  gmsh -2 -nt 1 -setnumber s "$s" -format mesh "$FOAM_BENCH/../tests/data/gmsh/flow_box.geo" -o "${b}_surf.mesh" \
+    > "${b}_gmsh.log" 2>&1 &&
+    /usr/bin/python3 "$FOAM_BENCH/../tests/scripts/mesh_to_smesh.py" "${b}_surf.mesh" "${b}_surf.smesh" 0,0,0 &&
+    tetgen -pQ "${b}_surf.smesh" > "${b}_tetgen.log" 2>&1 &&
+    "$tetopt" convert "${b}_surf.1.node" "$out" 2> /dev/null
+}
+
+foam_laplace() {
+  foam_case "$1" "$2" "$3" && /usr/bin/python3 "$FOAM_BENCH/foam_laplace.py" write "$2" &&
+    (cd "$2" && foam laplacianFoam > laplace.log 2>&1) && /usr/bin/python3 "$FOAM_BENCH/foam_laplace.py" error "$2"
 }

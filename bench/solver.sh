@@ -50,14 +50,11 @@ row() {
   local name=$1 mesh=$2 s=$3 verdict=$4 case=$OUT/case_$1
   foam_case "$mesh" "$case" "$T" || { echo "| $name | - | $(worst "$mesh") | $s | $verdict | tetopt convert failed | | | | | | | | |" >> "$MD"; return; }
   foam_run "$case"
-  local sum lap=-
+  local sum lap
   sum=$(foam_summary "$case")
   # The Laplacian's own error on this mesh (bench/foam_laplace.py).
-  if foam_case "$mesh" "${case}_laplace" "$T" && "$PY" "$ROOT/bench/foam_laplace.py" write "${case}_laplace" &&
-     (cd "${case}_laplace" && foam laplacianFoam > laplace.log 2>&1); then
-    lap=$("$PY" "$ROOT/bench/foam_laplace.py" error "${case}_laplace" | sed 's/.*laplace_rms=\([^ ]*\).*/\1/')
-  fi
-  sum="$sum laplace_rms=$lap"
+  lap=$(foam_laplace "$mesh" "${case}_laplace" "$T" | sed -n 's/.*laplace_rms=\([^ ]*\).*/\1/p')
+  sum="$sum laplace_rms=${lap:--}"
   # The same with CalculiX's linear tets (bench/ccx_laplace.py), when ccx is there.
   local fem=-
   if command -v ccx > /dev/null; then
@@ -85,10 +82,7 @@ EOF
 } > "$MD"
 for S in ${SIZES:-1 0.5}; do
   n=s$(echo "$S" | tr . p)
-  gmsh -2 -nt 1 -setnumber s "$S" -format mesh "$GEO" -o "$OUT/${n}_surf.mesh" > "$OUT/${n}_gmsh.log" 2>&1
-  "$PY" "$ROOT/tests/scripts/mesh_to_smesh.py" "$OUT/${n}_surf.mesh" "$OUT/${n}_surf.smesh" 0,0,0
-  tetgen -pQ "$OUT/${n}_surf.smesh" > /dev/null 2>&1
-  "$T" convert "$OUT/${n}_surf.1.node" "$OUT/${n}_raw.mesh" > /dev/null 2>&1
+  flow_box_raw "$S" "$OUT/${n}_raw.mesh" "$T"
   gmsh -3 -nt 1 -setnumber s "$S" -format mesh "$GEO" -o "$OUT/${n}_gmsh.mesh" > /dev/null 2>&1
   for src in raw gmsh; do
     in=$OUT/${n}_$src.mesh

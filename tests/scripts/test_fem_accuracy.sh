@@ -13,14 +13,12 @@
 # Usage: bash test_fem_accuracy.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
 source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh tetgen ccx
 "$PY" -c 'import meshio, numpy' 2> /dev/null || { echo "skip: no python3-meshio or python3-numpy"; exit 77; }
+source "$SRC/bench/foam_case.sh"  # flow_box_raw
 GEO=$SRC/tests/data/gmsh/flow_box.geo
 fem() { "$PY" "$SRC/bench/ccx_laplace.py" "$1" "$T/ccx_$2" 2> /dev/null | tail -1; }
 rms() { sed -n 's/.*fem_rms=\([^ ]*\).*/\1/p' <<< "$1"; }
 
-gmsh -2 -nt 1 -setnumber s 1 -format mesh "$GEO" -o "$T/surf.mesh" > "$T/gmsh.log" 2>&1
-"$PY" "$SRC/tests/scripts/mesh_to_smesh.py" "$T/surf.mesh" "$T/surf.smesh" 0,0,0
-tetgen -pQ "$T/surf.smesh" > "$T/tetgen.log" 2>&1
-"$CLI" convert "$T/surf.1.node" "$T/raw.mesh" 2> /dev/null
+flow_box_raw 1 "$T/raw.mesh" "$CLI"
 "$CLI" improve "$T/raw.mesh" -o "$T/ins.mesh" -q --allow-insert --allow-remove
 referee "$T/raw.mesh" "$T/ins.mesh" ins
 gmsh -3 -nt 1 -setnumber s 0.5 -format mesh "$GEO" -o "$T/gm.mesh" > "$T/gmsh3.log" 2>&1

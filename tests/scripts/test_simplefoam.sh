@@ -21,28 +21,20 @@ source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh tetgen checkMesh simpleFoam
 [ -f /usr/share/openfoam/etc/bashrc ] || { echo "skip: no /usr/share/openfoam/etc/bashrc"; exit 77; }
 source "$SRC/bench/foam_case.sh"
 
-gmsh -2 -nt 1 -setnumber s 1 -format mesh "$SRC/tests/data/gmsh/flow_box.geo" -o "$T/surf.mesh" > "$T/gmsh.log" 2>&1
-"$PY" "$SRC/tests/scripts/mesh_to_smesh.py" "$T/surf.mesh" "$T/surf.smesh" 0,0,0
-tetgen -pQ "$T/surf.smesh" > "$T/tetgen.log" 2>&1
-"$CLI" convert "$T/surf.1.node" "$T/raw.mesh" 2> /dev/null
+flow_box_raw 1 "$T/raw.mesh" "$CLI"
 "$CLI" improve "$T/raw.mesh" -o "$T/ins.mesh" --report "$T/ins.json" -q --allow-insert --allow-remove
 referee "$T/raw.mesh" "$T/ins.mesh" ins
 "$PY" -c 'import json, sys; b = json.load(open(sys.argv[1]))["boundary_unchanged"]; sys.exit(0 if b["checked"] and b["ok"] else 1)' \
   "$T/ins.json" || { echo "FAIL: tetopt's own check of the boundary"; exit 1; }
 
 summary() { foam_case "$1" "$T/$2" "$CLI" && foam_run "$T/$2" && foam_summary "$T/$2"; }
-# The Laplacian's error alone (bench/foam_laplace.py): "cells=N laplace_rms=E laplace_max=M".
-laplace() {
-  foam_case "$1" "$T/$2" "$CLI" && "$PY" "$SRC/bench/foam_laplace.py" write "$T/$2" &&
-    (cd "$T/$2" && foam laplacianFoam > laplace.log 2>&1) && "$PY" "$SRC/bench/foam_laplace.py" error "$T/$2"
-}
 ins=$(summary "$T/ins.mesh" case_ins)
 echo "insertion output: $ins"
 "$CLI" improve "$T/raw.mesh" -o "$T/def.mesh" -q
 echo "(for contrast, not asserted) raw input: $(summary "$T/raw.mesh" case_raw)"
 echo "(for contrast, not asserted) default mode: $(summary "$T/def.mesh" case_def)"
-lap_raw=$(laplace "$T/raw.mesh" lap_raw)
-lap_ins=$(laplace "$T/ins.mesh" lap_ins)
+lap_raw=$(foam_laplace "$T/raw.mesh" "$T/lap_raw" "$CLI")
+lap_ins=$(foam_laplace "$T/ins.mesh" "$T/lap_ins" "$CLI")
 echo "Laplacian error: raw input $lap_raw; insertion output $lap_ins"
 "$PY" - "$ins" "$lap_raw" "$lap_ins" <<'PYEOF'
 import sys
