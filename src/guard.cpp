@@ -26,6 +26,8 @@ struct Part {
   std::array<int32_t, kTetMeasureCount> id;
 };
 constexpr double kRad = std::numbers::pi / 180.0;
+// The margin of the dihedral cosine tests (Guard::set_angle_cosines).
+constexpr double kCosTie = 1e-9;
 }  // namespace
 
 void Guard::take(const TetMesh& m, int threads, Guard& g) {
@@ -48,6 +50,9 @@ void Guard::take(const TetMesh& m, int threads, Guard& g) {
         // that, so sine_min >= sin(lo) * (1 + 1e-9) and >= sin(180° - hi) *
         // (1 + 1e-9) leave lo and hi as they are (the margin covers rounding).
         double skip_lo = 2, skip_hi = 2;  // sine_min at or above both: skip
+        // Or the dihedral cosines (set_angle_cosines' margin): at or below
+        // cl and at or above ch leave both as they are.
+        double cl = -std::numeric_limits<double>::infinity(), ch = std::numeric_limits<double>::infinity();
         for (int64_t i = b; i < e; ++i) {
           const int32_t* v = m.tet(static_cast<int32_t>(i));
           const double *a = m.point(v[0]), *p1 = m.point(v[1]), *c = m.point(v[2]), *d = m.point(v[3]);
@@ -63,16 +68,18 @@ void Guard::take(const TetMesh& m, int threads, Guard& g) {
           keep(Measure::Alpha, mv.alpha);
           const double sm = mv.sine_min;
           keep(Measure::SineMin, sm);
-          if (!(sm >= skip_lo && sm >= skip_hi)) {
+          if (!(sm >= skip_lo && sm >= skip_hi) && !(mv.cos_max <= cl && mv.cos_min >= ch)) {
             double dlo, dhi;
             dihedral_extremes(a, p1, c, d, dlo, dhi);
             if (dlo < lo[idx(Measure::DihedralMin)]) {
               keep(Measure::DihedralMin, dlo);
               skip_lo = std::sin(dlo * kRad) * (1 + 1e-9) + 1e-300;
+              cl = std::cos(dlo * kRad) - kCosTie;
             }
             if (-dhi < lo[idx(Measure::DihedralMax)]) {
               keep(Measure::DihedralMax, -dhi);
               skip_hi = dhi >= 90 ? std::sin((180.0 - dhi) * kRad) * (1 + 1e-9) + 1e-300 : 2;
+              ch = std::cos(dhi * kRad) + kCosTie;
             }
           }
           keep(Measure::ScaledJacobian, mv.scaled_jacobian);
@@ -134,9 +141,21 @@ void Guard::apply_floor_and_sine() {
     sine_enough_ = std::max(std::sin(lo * kRad), std::sin((180.0 - hi) * kRad)) * (1 + 1e-9) + 1e-12;
   else
     sine_enough_ = 2;  // never: always measure the angles
+  set_angle_cosines();
 }
 
-template <class F>
+void Guard::set_angle_cosines() {
+  // The cosine falls with the angle on [0, 180].  A margin of 1e-9 is far
+  // above the few ulps by which the cosines from the normals and the cosines
+  // of dihedral_extremes' atan2 angles differ, so a tet the cosines admit
+  // has both angles inside the extremes as dihedral_extremes computes them:
+  // the decision is the same, bit for bit, without the atan2.
+  const double lo = worst_[idx(Measure::DihedralMin)], hi = worst_[idx(Measure::DihedralMax)];
+  cos_lo_ = lo >= 0 && lo <= 180 ? std::cos(lo * kRad) - kCosTie : -std::numeric_limits<double>::infinity();
+  cos_hi_ = hi >= 0 && hi <= 180 ? std::cos(hi * kRad) + kCosTie : std::numeric_limits<double>::infinity();
+}
+
+template <bool Decide, class F>
 bool Guard::each_measure(const double* a, const double* b, const double* c, const double* d, F&& f) const {
   // The six from one set of pieces (detail::tet_measure_values, the
   // standalone functions' bits): each measure alone recomputed the volume,
@@ -150,6 +169,7 @@ bool Guard::each_measure(const double* a, const double* b, const double* c, cons
   if (!f(Measure::RadiusRatio, mv.radius_ratio, true)) return false;
   if (!f(Measure::EquivolumeSkewness, mv.equivolume_skewness, false)) return false;
   if (!(sm >= sine_enough_)) {
+    if (Decide && mv.cos_max <= cos_lo_ && mv.cos_min >= cos_hi_) return true;  // both inside (NaN: measure)
     double lo_deg, hi_deg;
     dihedral_extremes(a, b, c, d, lo_deg, hi_deg);
     if (!f(Measure::DihedralMin, lo_deg, true)) return false;
@@ -174,7 +194,7 @@ bool Guard::admits(const double* a, const double* b, const double* c, const doub
   if (!zones_.empty() && in_zone(a, b, c, d)) return true;
   // Cheapest first; each comparison is "not worse than the extreme" (NaN
   // fails); a failure is counted against its measure unless exempt.
-  return each_measure(a, b, c, d, [&](Measure k, double v, bool higher) {
+  return each_measure<true>(a, b, c, d, [&](Measure k, double v, bool higher) {
     const double e = worst_[idx(k)];
     if (higher ? v >= e : v <= e) return true;
     if (exempt_[idx(k)]) return true;
@@ -187,7 +207,7 @@ bool Guard::admits(const double* a, const double* b, const double* c, const doub
 double Guard::slack(const double* a, const double* b, const double* c, const double* d) const {
   if (!on_ || (!zones_.empty() && in_zone(a, b, c, d))) return std::numeric_limits<double>::infinity();
   double s = std::numeric_limits<double>::infinity();
-  each_measure(a, b, c, d, [&](Measure k, double v, bool higher) {
+  each_measure<false>(a, b, c, d, [&](Measure k, double v, bool higher) {
     const double e = worst_[idx(k)];
     if (exempt_[idx(k)] || std::isnan(e)) return true;
     const double r = (higher ? v - e : e - v) / std::max(std::fabs(e), 1e-300);

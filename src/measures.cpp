@@ -194,6 +194,24 @@ TetMeasureValues tet_measure_values(const double* a, const double* b, const doub
   r.sine_min = sine_min_from(t);
   r.radius_ratio = radius_ratio_from(t.p, t.vol, area);
   r.equivolume_skewness = equivolume_skewness_from(t.p, t.vol);
+  // The faces at edge e are those opposite the two ends of the opposite
+  // edge.  Only where the product of the normals' lengths is far from
+  // underflow and overflow (the normals are not scaled here as
+  // dihedral_parts scales them): else NaN, and the caller measures.
+  r.cos_max = -std::numeric_limits<double>::infinity();
+  r.cos_min = std::numeric_limits<double>::infinity();
+  for (int e = 0; e < 6; ++e) {
+    const int f = kEdgeVertex[kEdgeOpposite[e]][0], g = kEdgeVertex[kEdgeOpposite[e]][1];
+    const double den = t.nl[f] * t.nl[g];
+    const double cs =
+        den >= 0x1p-960 && den <= 0x1p+960 ? -dot(t.n[f], t.n[g]) / den : std::numeric_limits<double>::quiet_NaN();
+    if (!std::isfinite(cs)) {
+      r.cos_max = r.cos_min = std::numeric_limits<double>::quiet_NaN();
+      break;
+    }
+    r.cos_max = std::max(r.cos_max, cs);
+    r.cos_min = std::min(r.cos_min, cs);
+  }
   return r;
 }
 }  // namespace detail

@@ -25,6 +25,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "tetopt/measures.hpp"
@@ -60,6 +61,7 @@ class Guard {
     worst_ = e.worst;
     holder_ = e.holder;
     sine_enough_ = e.sine_enough;
+    set_angle_cosines();
   }
 
   /// Whether tet (a, b, c, d) is no worse than every extreme; when not, the
@@ -141,6 +143,12 @@ class Guard {
   std::array<bool, kTetMeasureCount> exempt_{};
   std::array<Holder, kTetMeasureCount> holder_{};
   double sine_enough_ = 2;  // sine_min at or above this proves both dihedral extremes
+  // Dihedral cosines at or below cos_lo_ and at or above cos_hi_ prove the
+  // smallest angle above the extreme and the largest below it (the
+  // cosines of the extremes, 1e-9 inside; -inf / +inf: never).
+  double cos_lo_ = -std::numeric_limits<double>::infinity();
+  double cos_hi_ = std::numeric_limits<double>::infinity();
+  void set_angle_cosines();
   struct Zone {
     double c[3];
     double r2;
@@ -152,9 +160,10 @@ class Guard {
   void apply_floor_and_sine();
   // Calls f(k, value, higher_is_better) for each guarded measure of tet
   // (a, b, c, d), cheapest first, while f returns true; the dihedral angles
-  // only where sine_min does not prove them already (sine_enough_).
+  // only where sine_min does not prove them already (sine_enough_), nor,
+  // with Decide (admits: only the outcome matters), their cosines.
   // Returns whether every call returned true.  admits() and slack() share it.
-  template <class F>
+  template <bool Decide, class F>
   bool each_measure(const double* a, const double* b, const double* c, const double* d, F&& f) const;
   mutable std::array<std::atomic<int64_t>, kTetMeasureCount> refused_{};
 };

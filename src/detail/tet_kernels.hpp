@@ -75,6 +75,12 @@ struct EdgeLengths2 {
 /// Defined in measures.cpp.
 struct TetMeasureValues {
   double alpha, mean_ratio, scaled_jacobian, sine_min, radius_ratio, equivolume_skewness;
+  /// The largest and smallest cosine of the six dihedral angles (-n_f . n_g
+  /// / (|n_f| |n_g|) from the same normals), NaN where a face normal is zero
+  /// or not finite.  A fast test only: within a few ulps of the cosines of
+  /// dihedral_extremes' angles, so a cosine beyond a threshold's cosine by
+  /// far more than that (Guard: 1e-9) decides the comparison of the angle.
+  double cos_max, cos_min;
 };
 TetMeasureValues tet_measure_values(const double* a, const double* b, const double* c, const double* d);
 

@@ -524,3 +524,33 @@ TEST(Measures, TetMeasureValuesAreTheStandaloneOnes) {
   EXPECT_GT(positive, 10000);  // both orientations and degenerate tets were met
   EXPECT_GT(degenerate, 1000);
 }
+
+// The guards decide a dihedral comparison from tet_measure_values' cosines
+// where they are beyond the extreme's cosine by 1e-9 (Guard::
+// set_angle_cosines), and measure the angles (atan2) only otherwise: the
+// largest and smallest cosine must be those of dihedral_extremes' angles to
+// far better than that, or a tet could be admitted that the angles refuse.
+TEST(Measures, DihedralCosinesAreThoseOfTheExtremeAngles) {
+  std::mt19937_64 rng(78);
+  const double rad = std::acos(-1.0) / 180.0;
+  int compared = 0;
+  double worst_lo = 0, worst_hi = 0;
+  for (int k = 0; k < 40000; ++k) {
+    double p[4][3];
+    tetopt_test::shaped_tet(k, rng, p);
+    const detail::TetMeasureValues v = detail::tet_measure_values(p[0], p[1], p[2], p[3]);
+    if (std::isnan(v.cos_max) || std::isnan(v.cos_min)) continue;  // the guards measure these
+    double lo, hi;
+    dihedral_extremes(p[0], p[1], p[2], p[3], lo, hi);
+    SCOPED_TRACE(k);
+    ASSERT_TRUE(std::isfinite(lo) && std::isfinite(hi));
+    worst_lo = std::max(worst_lo, std::fabs(v.cos_max - std::cos(lo * rad)));
+    worst_hi = std::max(worst_hi, std::fabs(v.cos_min - std::cos(hi * rad)));
+    ++compared;
+  }
+  EXPECT_GT(compared, 20000);
+  EXPECT_LT(worst_lo, 1e-11);
+  EXPECT_LT(worst_hi, 1e-11);
+  std::printf("dihedral cosines against the angles' over %d tets: %.3g (smallest angle), %.3g (largest)\n", compared,
+              worst_lo, worst_hi);
+}
