@@ -431,6 +431,7 @@ struct PyImproveOptions {
   bool polish = false;
   double size = 0;
   bool remesh = true;
+  double gradation = 0;  // the ratio (--gradation R); 0: the default
 };
 
 /// The diagnosis of m as JSON (the CLI's "diagnosis" object, `max_list`
@@ -487,6 +488,7 @@ tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
   o.polish = p.polish;
   o.size = p.size;
   o.remesh = p.remesh;
+  o.gradation = p.gradation > 0 ? std::log(p.gradation) : 0.0;  // as the command line
   return o;
 }
 
@@ -770,7 +772,8 @@ PYBIND11_MODULE(_tetopt, mod) {
       .def_readwrite("guard", &PyImproveOptions::guard)
       .def_readwrite("polish", &PyImproveOptions::polish)
       .def_readwrite("size", &PyImproveOptions::size)
-      .def_readwrite("remesh", &PyImproveOptions::remesh);
+      .def_readwrite("remesh", &PyImproveOptions::remesh)
+      .def_readwrite("gradation", &PyImproveOptions::gradation);
   mod.attr("HAVE_DIAGNOSE") = py::bool_(TETOPT_PY_HAVE_DIAGNOSE != 0);
 
   mod.def("improve_arrays", &improve_arrays, py::arg("points"), py::arg("tets"), py::arg("refs"),

@@ -580,6 +580,7 @@ class Driver {
       const auto t = Clock::now();
       RefineOptions fo;
       fo.size = o_.size;
+      fo.gradation = o_.gradation;
       fo.objective = o_.objective;
       fo.guard = guard_;
       fo.stop = stop_;
@@ -603,6 +604,7 @@ class Driver {
       RemeshOptions ro;
       ro.split_above = kRemeshSplit;
       ro.size = o_.size;
+      ro.gradation = o_.gradation;
       ro.objective = o_.objective;
       ro.guard = guard_;
       ro.stop = stop_;

@@ -329,7 +329,9 @@ constexpr double kWallGradation = 0.2624;
 // The size field of RemeshOptions (see insert.hpp); with cap, that of
 // refine_pass on a raw mesh: h the surface size at a raw vertex, cap the
 // graded size.
-void size_field(const TetMesh& m, double size, std::vector<double>& h, std::vector<double>* cap = nullptr) {
+void size_field(const TetMesh& m, double size, double gradation, std::vector<double>& h,
+                std::vector<double>* cap = nullptr) {
+  const double grade = gradation > 0 ? gradation : kSizeGradation;
   const int32_t nv = m.nv();
   h.assign(nv, 0.0);
   if (cap) cap->clear();
@@ -407,7 +409,7 @@ void size_field(const TetMesh& m, double size, std::vector<double>& h, std::vect
       const int32_t* tv = m.tet(*s);
       for (int i = 0; i < 4; ++i) {
         const int32_t w = tv[i];
-        const double c = gv + kSizeGradation * dist(m.point(v), m.point(w));
+        const double c = gv + grade * dist(m.point(v), m.point(w));
         if (c < g[w]) {
           g[w] = c;
           heap.push({c, w});
@@ -428,11 +430,12 @@ void size_field(const TetMesh& m, double size, std::vector<double>& h, std::vect
 // vertex stars, the size field when h does not cover every vertex, an
 // editor's options, and the split's acceptance (floor: the worst at the
 // start, so the worst alpha never falls).
-Status prepare_sized(TetMesh& m, std::vector<double>& h, double size, std::vector<double>* cap = nullptr) {
+Status prepare_sized(TetMesh& m, std::vector<double>& h, double size, double gradation,
+                     std::vector<double>* cap = nullptr) {
   if (!topology_current(m))
     if (Status s = build_topology(m); !s) return s;
   ensure_vertex_tets(m);
-  if (h.size() != static_cast<size_t>(m.nv())) size_field(m, size, h, cap);
+  if (h.size() != static_cast<size_t>(m.nv())) size_field(m, size, gradation, h, cap);
   return Status::success();
 }
 
@@ -465,7 +468,7 @@ struct EdgeRef {
 RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   RemeshStats st;
-  st.status = prepare_sized(m, h, o.size);
+  st.status = prepare_sized(m, h, o.size, o.gradation);
   if (!st.status) return st;
   TopoEditor ed(m, editor_options(o.objective, o.guard, o.stop));
   const Acceptance acc = acceptance(ed, o.cap, o.ratio);
@@ -555,7 +558,10 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
   const auto t0 = std::chrono::steady_clock::now();
   RefineStats st;
   std::vector<double> cap;  // empty unless the mesh is raw (size_field)
-  st.status = prepare_sized(m, h, o.size, &cap);
+  st.status = prepare_sized(m, h, o.size, o.gradation, &cap);
+  // A gradation asked for above the wall's (RefineOptions::gradation) is the
+  // wall's too: the layer on the boundary grows as fast as the interior may.
+  const double wall_grade = std::max(kWallGradation, o.gradation);
   if (!st.status) return st;
   TopoOptions to = editor_options(o.objective, o.guard, o.stop);
   to.threads = o.threads;
@@ -616,7 +622,7 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     if (cap.empty()) return {0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]), 0};
     const double capn = 0.25 * (cap[tv[0]] + cap[tv[1]] + cap[tv[2]] + cap[tv[3]]);
     const double hmin = std::min(std::min(h[tv[0]], h[tv[1]]), std::min(h[tv[2]], h[tv[3]]));
-    return {std::min(capn, hmin + kWallGradation * dist(it.cc, m.point(tv[0]))), capn};
+    return {std::min(capn, hmin + wall_grade * dist(it.cc, m.point(tv[0]))), capn};
   };
   constexpr size_t kWinMin = 4, kWinMax = 128;
   const bool ahead = TopoEditor::plan_threads(o.threads) > 1;

@@ -93,6 +93,12 @@ struct ImproveOptions {
   /// edge length everywhere (--size); 0: the size field of remesh_pass (a
   /// point field "size", else the constrained triangles' edge lengths).
   double size = 0;
+  /// With allow_insert on a raw mesh (constrained vertices with no free
+  /// vertex near them, `tetgen -p`): > 0, the slope of the interior's graded
+  /// size (it grows by at most this per unit length away from the surface's;
+  /// --gradation R gives log R, as MMG's -hgrad R); 0: 0.15 (R = 1.16).
+  /// Larger: fewer, larger interior tets.
+  double gradation = 0;
   bool remesh = true;  ///< false: allow_insert inserts only in the cavities of the worst tets (the former mode)
   /// With allow_remove: leave removed vertices in the array, referenced by no
   /// tet (ImproveReport::removed_vertices), so every id stays valid (tetopt-mpi

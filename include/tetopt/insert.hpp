@@ -155,6 +155,9 @@ struct RemeshOptions {
   /// split_above.
   double split_spanning = 1.4;
   double collapse_below = 0.6;  ///< collapse edges shorter than this times the size
+  /// > 0: the slope of the raw mesh's graded size (above: h grows by at
+  /// most this per unit length; MMG's -hgrad R is log R); 0: 0.15.
+  double gradation = 0;
   int sweeps = 1;               ///< split + collapse sweeps in this call
   /// Per sweep, up to this many (collect long edges, split them) loops,
   /// ending when one splits at most 2% of what it found; then the same for
@@ -214,6 +217,10 @@ RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions&
 struct RefineOptions {
   double size = 0;            ///< > 0: target edge length everywhere (as RemeshOptions::size)
   double radius_above = 0.8;  ///< refine tets whose circumradius exceeds this times their size
+  /// > 0: the slope of the raw mesh's graded size (as RemeshOptions::
+  /// gradation), and of the new vertices' size from the wall where it is
+  /// above log(1.3); 0: 0.15 and log(1.3).
+  double gradation = 0;
   double cap = 0.3;           ///< Acceptance::cap
   double ratio = 0.9;         ///< Acceptance::ratio
   /// No vertex of the cavity may lie closer to the circumcentre than this

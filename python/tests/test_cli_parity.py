@@ -2,6 +2,9 @@
 import dataclasses
 import json
 import math
+import shutil
+import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -256,6 +259,37 @@ def test_remesher_size_and_no_remesh_match_cli(cli, tmp_path):
         reps[name] = rep
     assert reps["off"]["operations"]["edge_splits"] == 0
     assert reps["size"]["operations"]["edge_splits"] > reps["default"]["operations"]["edge_splits"]
+
+
+def test_gradation_matches_cli_on_a_raw_mesh(cli, tmp_path):
+    """gradation= is --gradation: on raw tetgen -pQ output of body_in_box.geo
+    (no interior vertex) the same output bytes as the CLI, and a ratio of 1.5
+    makes fewer tets than the default (1.16)."""
+    if not (shutil.which("gmsh") and shutil.which("tetgen")):
+        pytest.skip("gmsh and tetgen make the raw mesh")
+    geo = Path(__file__).resolve().parents[2] / "tests" / "data" / "gmsh" / "body_in_box.geo"
+    surf = tmp_path / "surf.mesh"
+    subprocess.run(["gmsh", "-2", "-nt", "1", "-setnumber", "s", "1.0", "-format", "mesh", str(geo), "-o", str(surf)],
+                   check=True, capture_output=True)
+    subprocess.run(["tetgen", "-pQ", str(surf)], check=True, capture_output=True)
+    raw = tmp_path / "surf.1.node"
+    mesh = tetopt.read(raw)
+    tets = {}
+    for name, kw, flags in (("grad", {"gradation": 1.5}, ["--gradation", "1.5"]), ("default", {}, [])):
+        cli_out, py_out = tmp_path / f"cli_{name}.mesh", tmp_path / f"py_{name}.mesh"
+        run_cli(cli, "improve", raw, "-o", cli_out, "-q", "--allow-insert", "--allow-remove", *flags)
+        improved, rep = tetopt.improve_mesh(mesh, allow_insert=True, allow_remove=True, **kw)
+        tetopt.write(py_out, improved)
+        assert py_out.read_bytes() == cli_out.read_bytes(), name
+        assert rep["boundary_unchanged"]["ok"] is True
+        tets[name] = rep["after"]["tets"]
+    assert tets["grad"] < 0.8 * tets["default"]
+
+
+@pytest.mark.parametrize("bad", [1.0, 0.5, -2.0, float("nan"), float("inf"), True, "1.3"])
+def test_gradation_must_be_a_ratio_above_one(bad):
+    with pytest.raises(ValueError, match=r"gradation: expected a ratio above 1"):
+        tetopt.improve(np.zeros((4, 3)), np.array([[0, 1, 2, 3]]), allow_insert=True, gradation=bad)
 
 
 def test_size_must_be_a_length():

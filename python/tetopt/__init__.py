@@ -157,7 +157,8 @@ class Mesh:
 def _options(mode: str, optimizer: str, weight: float, threshold: float, iterations: int, seed: int,
              threads: int, check: bool, diagnose: bool, allow_insert: bool = False,
              allow_remove: bool = False, objective: str = "alpha", guard: bool = True,
-             polish: bool = False, size: float = 0.0, remesh: bool = True) -> Any:
+             polish: bool = False, size: float = 0.0, remesh: bool = True,
+             gradation: float = 0.0) -> Any:
     o = _tetopt.ImproveOptions()
     for name, value, kind in (("mode", mode, str), ("optimizer", optimizer, str)):
         if not isinstance(value, kind):
@@ -194,6 +195,10 @@ def _options(mode: str, optimizer: str, weight: float, threshold: float, iterati
             or not np.isfinite(size):
         raise ValueError(f"size: expected a length >= 0 (0: the size field of the boundary), got {size!r}")
     o.size = float(size)
+    if isinstance(gradation, bool) or not isinstance(gradation, (int, float, np.integer, np.floating)) \
+            or not (gradation == 0 or gradation > 1) or not np.isfinite(gradation):
+        raise ValueError(f"gradation: expected a ratio above 1, or 0 for the default 1.16, got {gradation!r}")
+    o.gradation = float(gradation)
     if not isinstance(remesh, (bool, np.bool_)):
         raise ValueError(f"remesh: expected a bool, got {remesh!r}")
     o.remesh = bool(remesh)
@@ -248,6 +253,7 @@ def improve(
     guard: bool = True,
     polish: bool = False,
     size: float = 0.0,
+    gradation: float = 0.0,
     remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Any:
@@ -321,6 +327,10 @@ def improve(
         size: with allow_insert, the remesher's target edge length everywhere
             (``--size``); 0: the size field of the boundary triangles (or a
             point field named 'size').
+        gradation: with allow_insert on a raw mesh (no interior vertex, as
+            raw tetgen output), the most the interior's size may grow per edge
+            length away from the surface's (``--gradation``, MMG's hgrad); 0:
+            the default, 1.16.  1.3 or more: fewer, larger tets.
         remesh: with allow_insert, run the interior remesher first
             (circumcentres of the tets too large for the size field, then
             edge splits and collapses toward it); False is
@@ -375,11 +385,12 @@ def improve(
         return improve_meshio(points, mode=mode, weight=weight, threshold=threshold, iterations=iterations,
                               seed=seed, threads=threads, optimizer=optimizer, check=check, diagnose=diagnose,
                               log=log, allow_insert=allow_insert, allow_remove=allow_remove, objective=objective,
-                              guard=guard, polish=polish, size=size, remesh=remesh, progress=progress)
+                              guard=guard, polish=polish, size=size, gradation=gradation, remesh=remesh,
+                              progress=progress)
     if tets is None:
         raise ValueError("tets: required (or pass a meshio.Mesh)")
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove, objective, guard, polish, size, remesh)
+                 allow_insert, allow_remove, objective, guard, polish, size, remesh, gradation)
     _check_callable("progress", progress)
     p, t, r, js, dj = _tetopt.improve_arrays(points, tets, refs, constrained_faces, o, log, progress)
     return p, t, r, _with_diagnosis(js, dj)
@@ -404,6 +415,7 @@ def improve_mesh(
     guard: bool = True,
     polish: bool = False,
     size: float = 0.0,
+    gradation: float = 0.0,
     remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
@@ -416,7 +428,7 @@ def improve_mesh(
     mesh is not modified.
     """
     o = _options(mode, optimizer, weight, threshold, iterations, seed, threads, check, diagnose,
-                 allow_insert, allow_remove, objective, guard, polish, size, remesh)
+                 allow_insert, allow_remove, objective, guard, polish, size, remesh, gradation)
     if not isinstance(mesh, Mesh):
         raise ValueError(f"mesh: expected a tetopt.Mesh, got {type(mesh).__name__}")
     _check_callable("progress", progress)
@@ -683,6 +695,7 @@ def improve_meshio(
     guard: bool = True,
     polish: bool = False,
     size: float = 0.0,
+    gradation: float = 0.0,
     remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Any:
@@ -765,7 +778,8 @@ def improve_meshio(
     out, report = improve_mesh(mesh, mode=mode, weight=weight, threshold=threshold, iterations=iterations,
                                seed=seed, threads=threads, optimizer=optimizer, check=check, diagnose=diagnose,
                                log=log, allow_insert=allow_insert, allow_remove=allow_remove,
-                               objective=objective, guard=guard, polish=polish, size=size, remesh=remesh, progress=progress)
+                               objective=objective, guard=guard, polish=polish, size=size, gradation=gradation,
+                               remesh=remesh, progress=progress)
     new_tets = np.asarray(out.tets)
     if out.flipped_on_read:  # back to the input's own orientation (as improve() does)
         new_tets = new_tets[:, [0, 1, 3, 2]]

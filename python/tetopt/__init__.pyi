@@ -113,6 +113,7 @@ def improve(
     guard: bool = True,
     polish: bool = False,
     size: float = 0.0,
+    gradation: float = 0.0,
     remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32], npt.NDArray[np.int32], Dict[str, Any]]:
@@ -144,6 +145,7 @@ def improve_mesh(
     guard: bool = True,
     polish: bool = False,
     size: float = 0.0,
+    gradation: float = 0.0,
     remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Tuple[Mesh, Dict[str, Any]]:
@@ -168,6 +170,7 @@ def improve_meshio(
     guard: bool = True,
     polish: bool = False,
     size: float = 0.0,
+    gradation: float = 0.0,
     remesh: bool = True,
     progress: Optional[ProgressCallback] = None,
 ) -> Any:

@@ -26,9 +26,9 @@ ONLY_TETOPT=" --field --html "
 # one ("" = none to try).
 declare -A GOOD=([--mode]=combined [--optimizer]=maxmin [--weight]=0.8 [--threshold]=0.35
                  [--iterations]=3 [--seed]=7 [--threads]=2 [--report]=REPORT [--msh-version]=22 [--meshb-version]=4
-                 [--binary]="" [--allow-insert]="" [--allow-remove]="" [--size]=0.5 [--no-remesh]="" [--no-check]="" [--objective]=sine [--no-guard]="" [--polish]="" [--keep-order]="" [--write-boundary]="" [--reorder-above]=1000 [-q]="" [--quiet]="" [-v]="" [--verbose]="")
+                 [--binary]="" [--allow-insert]="" [--allow-remove]="" [--size]=0.5 [--gradation]=1.3 [--no-remesh]="" [--no-check]="" [--objective]=sine [--no-guard]="" [--polish]="" [--keep-order]="" [--write-boundary]="" [--reorder-above]=1000 [-q]="" [--quiet]="" [-v]="" [--verbose]="")
 declare -A BAD=([--mode]=bogus [--optimizer]=bogus [--weight]=1.5 [--threshold]=0 [--iterations]=0
-                [--seed]=x [--objective]=checkmesh [--reorder-above]=-1 [--size]=-1 [--threads]=2000 [--msh-version]=3 [--meshb-version]=5)
+                [--seed]=x [--objective]=checkmesh [--reorder-above]=-1 [--size]=-1 [--gradation]=0.9 [--threads]=2000 [--msh-version]=3 [--meshb-version]=5)
 
 "$T" generate "$W/in.mesh" --cells 4 4 4 --jitter 0.3 --seed 2 > /dev/null || { echo "FAIL generate"; exit 1; }
 "$T" improve --help > "$W/help_t" && "$M" --help > "$W/help_m" < /dev/null || { echo "FAIL --help"; exit 1; }

@@ -7,7 +7,9 @@
 # quality --compare when the referee is absent), raise the worst alpha at
 # least as far as the default mode, lift the mean alpha above 0.6 (the raw
 # mesh has 0.3) and leave fewer tets below alpha 0.2 than the default mode;
-# with --size it refines to the size asked; --no-remesh gives the former mode.
+# with --size it refines to the size asked; --gradation 1.5 (MMG's -hgrad)
+# makes fewer tets than the default gradation, at a worst alpha no lower than
+# the default mode's and a mean above 0.6; --no-remesh gives the former mode.
 # Usage: bash test_remesh.sh TETOPT_CLI SOURCE_DIR   (exit 77 = skip)
 source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh tetgen
 
@@ -18,14 +20,15 @@ tetgen -pQ "$T/surf.mesh" > "$T/tetgen.log" 2>&1
 "$CLI" improve "$T/raw.mesh" -o "$T/ins.mesh" --report "$T/ins.json" -q --allow-insert --allow-remove
 "$CLI" improve "$T/raw.mesh" -o "$T/fine.mesh" --report "$T/fine.json" -q --allow-insert --size 0.15
 "$CLI" improve "$T/raw.mesh" -o "$T/old.mesh" --report "$T/old.json" -q --allow-insert --no-remesh
+"$CLI" improve "$T/raw.mesh" -o "$T/grad.mesh" --report "$T/grad.json" -q --allow-insert --allow-remove --gradation 1.5
 
-for x in def ins fine old; do referee "$T/raw.mesh" "$T/$x.mesh" "$x"; done
-[ "$have_ref" = 1 ] && echo "referee: all four outputs keep the boundary, no inverted tet, volumes kept"
+for x in def ins fine old grad; do referee "$T/raw.mesh" "$T/$x.mesh" "$x"; done
+[ "$have_ref" = 1 ] && echo "referee: all five outputs keep the boundary, no inverted tet, volumes kept"
 
 "$PY" - "$T" <<'PYEOF'
 import json, sys
 d = sys.argv[1]
-r = {x: json.load(open(f"{d}/{x}.json")) for x in ("def", "ins", "fine", "old")}
+r = {x: json.load(open(f"{d}/{x}.json")) for x in ("def", "ins", "fine", "old", "grad")}
 raw = r["def"]["before"]
 def after(x): return r[x]["after"]
 def fail(msg): print("FAIL:", msg); sys.exit(1)
@@ -47,6 +50,10 @@ if not ins["alpha_worst"] >= raw["alpha_worst"]: fail("worst alpha fell")
 if not ins["alpha_mean"] > 0.6: fail("mean alpha %.4f <= 0.6" % ins["alpha_mean"])
 if not ins["alpha_below_0.2"] < de["alpha_below_0.2"]: fail("more tets below 0.2 than the default mode")
 if not after("fine")["tets"] > ins["tets"]: fail("--size 0.15 did not refine beyond the default size field")
+g = after("grad")
+if not g["tets"] < 0.8 * ins["tets"]: fail("--gradation 1.5: %d tets, not fewer than 0.8 x %d" % (g["tets"], ins["tets"]))
+if not g["alpha_worst"] >= de["alpha_worst"]: fail("--gradation 1.5: worst alpha below the default mode's")
+if not g["alpha_mean"] > 0.6: fail("--gradation 1.5: mean alpha %.4f <= 0.6" % g["alpha_mean"])
 print("ok")
 PYEOF
 
