@@ -18,6 +18,10 @@ source "$(dirname "$0")/cli_prologue.sh" "$@" gmsh
 
 gmsh -3 -nt 1 -setnumber s 0.08 -setnumber tk 0.05 -format mesh "$SRC/tests/data/gmsh/blade_passage.geo" -o "$T/in.mesh" > "$T/gmsh.log" 2>&1
 "$CLI" quality "$T/in.mesh" --json > "$T/q.json"
+# The pairs are searched in parallel batches (diagnose.cpp, lower_by_pairs):
+# the bound must be the same, bit for bit, on one thread and on three.
+"$CLI" quality "$T/in.mesh" --json --threads 1 > "$T/q1.json"
+"$CLI" quality "$T/in.mesh" --json --threads 3 > "$T/q3.json"
 "$CLI" improve "$T/in.mesh" -o "$T/out.mesh" --report "$T/ins.json" -q --allow-insert --allow-remove
 referee "$T/in.mesh" "$T/out.mesh" out
 [ "$have_ref" = 1 ] && echo "referee: the output keeps the boundary, no inverted tet, volumes kept"
@@ -29,6 +33,9 @@ q, ins = json.load(open(f"{d}/q.json")), json.load(open(f"{d}/ins.json"))
 b = q["diagnosis"]["bound"]
 bound = b["alpha_upper_bound"]
 if not b.get("alpha_pair"): fail(f"the bound {bound:.4f} is not a pair's: {b}")
+b1, b3 = (json.load(open(f"{d}/q{t}.json"))["diagnosis"]["bound"] for t in (1, 3))
+for k in ("alpha_upper_bound", "alpha_pair", "alpha_tet", "alpha_face", "tets_below_at_least"):
+    if b1[k] != b3[k] or b1[k] != b[k]: fail(f"bound {k}: {b1[k]} on one thread, {b3[k]} on three, {b[k]} on all")
 u = ins["boundary_unchanged"]
 if not (u["checked"] and u["ok"]): fail(f"boundary_unchanged {u}")
 w = ins["after"]["alpha_worst"]
