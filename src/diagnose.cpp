@@ -1346,9 +1346,12 @@ namespace {
 // the packed face (4t+f) of that side's tet t.  Inside the wedges of its
 // sharp edges on that side (face_wedges), else the triangle's own (cached
 // by shape when cache is given; no cache: thread-safe).
+// `by_shape` (when given) says whether the value came from the plain
+// triangle's best apex, which `cache` memoises by shape.
 double side_best(const TetMesh& m, int32_t side,
                  std::unordered_map<std::pair<int64_t, int64_t>, double, PairHash>* cache, SideBound* info = nullptr,
-                 bool walls_on = true) {
+                 bool walls_on = true, bool* by_shape = nullptr) {
+  if (by_shape) *by_shape = false;
   const double* p[3];
   face_points(m, side, p);
   const double* s[3];
@@ -1376,6 +1379,7 @@ double side_best(const TetMesh& m, int32_t side,
     return v;
   }
   if (wedged) return wedges_best_alpha(p[0], p[1], p[2], s);
+  if (by_shape) *by_shape = true;
   std::pair<int64_t, int64_t> key;
   if (!shape_key(Frame(p[0], p[1], p[2]), key)) return 0;  // degenerate
   if (cache)
@@ -1609,9 +1613,54 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
     constexpr size_t kDihedralExamined = 64;
     double cur = std::numeric_limits<double>::infinity();
     size_t examined = 0;
-    while (heap_end != heap.begin()) {
-      std::pop_heap(heap.begin(), heap_end, after);
-      const size_t i = *--heap_end;
+    // For alpha, the sides of wedged or walled faces (side_best: a search in
+    // the wedges, or under the walls) are searched ahead in parallel, a
+    // batch of the next faces in the heap's order at a time, into `known`;
+    // the loop then takes them in that order as before.  side_best uses its
+    // shape cache only for a side neither wedged nor walled: those values
+    // are dropped and left to the loop, so every value is the loop's own,
+    // bit for bit, for every thread count.
+    const int nth = detail::resolve_threads(threads);
+    const size_t batch = o == 0 && nth > 1 ? 4 * static_cast<size_t>(nth) : 0;
+    std::vector<size_t> ahead;  // faces popped and searched ahead, in order
+    size_t next_ahead = 0;
+    std::vector<int32_t> todo;
+    while (next_ahead < ahead.size() || heap_end != heap.begin()) {
+      if (batch > 0 && next_ahead == ahead.size()) {
+        ahead.clear();
+        next_ahead = 0;
+        todo.clear();
+        while (ahead.size() < batch && heap_end != heap.begin()) {
+          std::pop_heap(heap.begin(), heap_end, after);
+          const size_t f = *--heap_end;
+          ahead.push_back(f);
+          if (cheap[o][f] >= cur - tol) break;  // the loop stops there
+          if (!(wedged[f] || walled[f])) continue;
+          for (const int32_t side : {faces[f], m.adj[static_cast<size_t>(faces[f])]})
+            if (side >= 0 && !known.count(side)) todo.push_back(side);
+        }
+        std::sort(todo.begin(), todo.end());
+        todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
+        std::vector<SideBound> found(todo.size());
+        std::vector<uint8_t> by_shape(todo.size(), 0);
+        detail::parallel_for_each(static_cast<int64_t>(todo.size()), nth, [&](int64_t k) {
+          SideBound& sb = found[static_cast<size_t>(k)];
+          bool shape = false;
+          sb.alpha = side_best(m, todo[static_cast<size_t>(k)], nullptr, &sb, walls_on, &shape);
+          by_shape[static_cast<size_t>(k)] = shape;
+        });
+        // A value by shape is left to the loop, which memoises it (its
+        // cache may hold a congruent triangle's value).
+        for (size_t k = 0; k < todo.size(); ++k)
+          if (!by_shape[k]) known.emplace(todo[k], found[k]);
+      }
+      size_t i;
+      if (batch > 0) {
+        i = ahead[next_ahead++];
+      } else {
+        std::pop_heap(heap.begin(), heap_end, after);
+        i = *--heap_end;
+      }
       if (cheap[o][i] >= cur - tol) break;  // achieved >= current minimum: cannot hold it
       if (capped && examined++ >= kDihedralExamined) break;
       const double* p[3];
