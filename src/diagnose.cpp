@@ -1001,7 +1001,7 @@ size_t lower_by_pairs(const TetMesh& m, const std::vector<int32_t>& faces, const
   for (size_t b = 0; b < tasks.size(); b += batch) {
     const size_t e = std::min(tasks.size(), b + batch);
     const double enough = cur - tol;
-    detail::parallel_for_each(static_cast<int64_t>(e - b), nth, [&](int64_t k) {
+    detail::parallel_items(static_cast<int64_t>(e - b), nth, [&](int64_t k) {  // one task each
       PairTask& t = tasks[b + static_cast<size_t>(k)];
       t.value = t.now < enough ? std::max(t.now, pair_best_alpha(t.tp, t.e, t.tw, t.up, t.eu, t.uw, enough)) : t.now;
     });
@@ -1643,7 +1643,7 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
         todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
         std::vector<SideBound> found(todo.size());
         std::vector<uint8_t> by_shape(todo.size(), 0);
-        detail::parallel_for_each(static_cast<int64_t>(todo.size()), nth, [&](int64_t k) {
+        detail::parallel_items(static_cast<int64_t>(todo.size()), nth, [&](int64_t k) {  // one task each
           SideBound& sb = found[static_cast<size_t>(k)];
           bool shape = false;
           sb.alpha = side_best(m, todo[static_cast<size_t>(k)], nullptr, &sb, walls_on, &shape);
