@@ -976,15 +976,15 @@ void pair_tasks(const TetMesh& m, int32_t side, size_t face, double above, std::
 
 // Lowers `cur` to the pair bounds (pair_best_alpha) of the given wedged
 // faces' sides, each where it is below cur - tol; returns the index of the
-// face whose pair set it last (or SIZE_MAX).  The searches run in parallel,
-// each stopping once it reaches the bound at the start: pair_best_alpha's
-// steps do not depend on where it stops, so a search that the running
-// bound (lower) would have stopped earlier still ends at or above that
-// bound, and one that runs to the end returns the same value at either
-// stop.  The tasks are then taken in order as one loop would take them: the
-// bound is the same, bit for bit, for every thread count (plate_stack.geo,
-// thin plates with many sharp edges, spent 0.6 s of a 2.9 s insertion run
-// in these searches on one thread).
+// face whose pair set it last (or SIZE_MAX).  The searches run in parallel
+// batches, each stopping once it reaches the bound at its batch's start:
+// pair_best_alpha's steps do not depend on where it stops, so a search that
+// the running bound (lower) would have stopped earlier still ends at or
+// above that bound, and one that runs to the end returns the same value at
+// either stop.  The tasks are then taken in order as one loop would take
+// them: the bound is the same, bit for bit, for every thread count
+// (plate_stack.geo, thin plates with many sharp edges, spent 0.6 s of a
+// 2.9 s insertion run in these searches on one busy thread).
 size_t lower_by_pairs(const TetMesh& m, const std::vector<int32_t>& faces, const std::vector<size_t>& paired,
                       double tol, int threads, double& cur) {
   std::vector<PairTask> tasks;
