@@ -85,7 +85,7 @@ for part in $PARTS; do
     in=$OUT/${part}_$kind.mesh
     BOUND=$("$T" quality "$in" --json --threads "$THREADS" 2> /dev/null |
             $PY -c 'import json, sys; print(json.load(sys.stdin)["diagnosis"]["bound"]["alpha_upper_bound"])')
-    row "${part}_$kind (bound $BOUND)" input "$in" "$in" ""
+    row "${part}_$kind (bound $(printf %.4f "$BOUND"))" input "$in" "$in" ""
     for tool in default insert mmg; do
       o=$OUT/${part}_${kind}_$tool.mesh
       case $tool in
