@@ -41,8 +41,6 @@ ap.add_argument("--sym", action="store_true")
 ap.add_argument("--p1", action="store_true")  # P1-P1 with SUPG/PSPG stabilisation instead of P2-P1
 ap.add_argument("--aref", type=float, default=0.197)
 ap.add_argument("--rtol", type=float, default=1e-9)
-ap.add_argument("--rtols", default="")  # per-continuation-step rtol
-ap.add_argument("--blr", type=float, default=0.0)  # MUMPS BLR tolerance (0 = off)
 args = ap.parse_args()
 
 comm = MPI.COMM_WORLD
@@ -186,9 +184,6 @@ opts[f"{pfx}ksp_type"] = "preonly"
 opts[f"{pfx}pc_type"] = "lu"
 opts[f"{pfx}pc_factor_mat_solver_type"] = "mumps"
 opts[f"{pfx}mat_mumps_icntl_14"] = 200
-if args.blr > 0:
-    opts[f"{pfx}mat_mumps_icntl_35"] = 1
-    opts[f"{pfx}mat_mumps_cntl_7"] = args.blr
 ksp.setFromOptions()
 
 # print Newton residuals
@@ -196,10 +191,8 @@ dolfinx.log.set_log_level(dolfinx.log.LogLevel.INFO)
 
 total_its = 0
 nus = [float(s) for s in args.nus.split(",")]
-rtols = [float(s) for s in args.rtols.split(",")] if args.rtols else [args.rtol] * len(nus)
-for nuv, rt in zip(nus, rtols):
+for nuv in nus:
     nu.value = nuv
-    solver.rtol = rt
     t1 = time.time()
     its, conv = solver.solve(wsol)
     wsol.x.scatter_forward()

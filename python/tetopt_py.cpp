@@ -431,7 +431,7 @@ struct PyImproveOptions {
   bool polish = false;
   double size = 0;
   bool remesh = true;
-  double gradation = 0;  // the ratio (--gradation R); 0: the default
+  double gradation = 0;  // ImproveOptions::gradation
 };
 
 /// The diagnosis of m as JSON (the CLI's "diagnosis" object, `max_list`
@@ -488,7 +488,7 @@ tetopt::ImproveOptions to_options(const PyImproveOptions& p) {
   o.polish = p.polish;
   o.size = p.size;
   o.remesh = p.remesh;
-  o.gradation = p.gradation > 0 ? std::log(p.gradation) : 0.0;  // as the command line
+  o.gradation = p.gradation;
   return o;
 }
 

@@ -933,6 +933,12 @@ double pair_best_alpha(const double* const t[3], int et, const double* const tw[
   return best;
 }
 
+// The bound's searches made ahead in parallel (lower_by_pairs, and the
+// wedged and walled sides in mesh_bound_impl) go in batches of this many
+// per thread: larger batches search more that the running bound would have
+// cut short.
+constexpr size_t kAheadPerThread = 4;
+
 // The pairs of side `side` with the kept face beside it at each of its
 // sharp edges (face_wedges), for lower_by_pairs: a pair's bound is at least
 // its two tets' alpha now (the mesh itself keeps both faces), so a pair
@@ -996,7 +1002,7 @@ size_t lower_by_pairs(const TetMesh& m, const std::vector<int32_t>& faces, const
   // of them, each stopping only at the bound from before, took 5.1 s of
   // `tetopt quality` on plate_stack where the loop took 1.4 s).
   const int nth = detail::resolve_threads(threads);
-  const size_t batch = nth > 1 ? 4 * static_cast<size_t>(nth) : 1;
+  const size_t batch = nth > 1 ? kAheadPerThread * static_cast<size_t>(nth) : 1;
   size_t arg = SIZE_MAX;
   for (size_t b = 0; b < tasks.size(); b += batch) {
     const size_t e = std::min(tasks.size(), b + batch);
@@ -1621,7 +1627,7 @@ MeshBound mesh_bound_impl(const TetMesh& m, int threads, bool all_measures, Side
     // are dropped and left to the loop, so every value is the loop's own,
     // bit for bit, for every thread count.
     const int nth = detail::resolve_threads(threads);
-    const size_t batch = o == 0 && nth > 1 ? 4 * static_cast<size_t>(nth) : 0;
+    const size_t batch = o == 0 && nth > 1 ? kAheadPerThread * static_cast<size_t>(nth) : 0;
     std::vector<size_t> ahead;  // faces popped and searched ahead, in order
     size_t next_ahead = 0;
     std::vector<int32_t> todo;

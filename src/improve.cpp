@@ -28,6 +28,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
+// ImproveOptions::gradation (a ratio R, MMG's hgrad) as the remesher's slope
+// log R (RefineOptions / RemeshOptions::gradation); 0 stays the default.
+double grade_slope(double ratio) { return ratio > 0 ? std::log(ratio) : 0.0; }
+
 // What mode best's trials report: the counters of the kept trial (what
 // made the output) with the time spent by all of them.
 ImproveReport with_times_of(ImproveReport counters, const ImproveReport& times) {
@@ -580,7 +584,7 @@ class Driver {
       const auto t = Clock::now();
       RefineOptions fo;
       fo.size = o_.size;
-      fo.gradation = o_.gradation;
+      fo.gradation = grade_slope(o_.gradation);
       fo.objective = o_.objective;
       fo.guard = guard_;
       fo.stop = stop_;
@@ -604,7 +608,7 @@ class Driver {
       RemeshOptions ro;
       ro.split_above = kRemeshSplit;
       ro.size = o_.size;
-      ro.gradation = o_.gradation;
+      ro.gradation = grade_slope(o_.gradation);
       ro.objective = o_.objective;
       ro.guard = guard_;
       ro.stop = stop_;
@@ -1238,6 +1242,8 @@ Status improve(TetMesh& m, const ImproveOptions& opt_in, ImproveReport& rep, con
 
   if (opt.weight < 0.5 || opt.weight >= 1.0)
     return Status::error(ErrorCode::InvalidMesh, "improve: weight C must satisfy 0.5 <= C < 1");
+  if (!(opt.gradation == 0 || (opt.gradation > 1 && std::isfinite(opt.gradation))))
+    return Status::error(ErrorCode::InvalidMesh, "improve: gradation must be 0 (the default) or a ratio above 1");
   // Guards: the extremes of the mesh as it is now (untangled), so that no
   // stage ends the run worse than its input on any per-tet measure.
   Guard guard;

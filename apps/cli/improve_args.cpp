@@ -175,7 +175,7 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     } else if (o == "--gradation") {
       if (!number(d)) return R::Error;
       if (!(d > 1) || !std::isfinite(d)) return bad("--gradation must be a ratio above 1 (MMG's -hgrad; default 1.16)");
-      a.opt.gradation = std::log(d);
+      a.opt.gradation = d;
     } else if (o == "--no-remesh") {
       a.opt.remesh = false;
     } else if (o == "--threshold") {

@@ -94,10 +94,10 @@ struct ImproveOptions {
   /// point field "size", else the constrained triangles' edge lengths).
   double size = 0;
   /// With allow_insert on a raw mesh (constrained vertices with no free
-  /// vertex near them, `tetgen -p`): > 0, the slope of the interior's graded
-  /// size (it grows by at most this per unit length away from the surface's;
-  /// --gradation R gives log R, as MMG's -hgrad R); 0: 0.15 (R = 1.16).
-  /// Larger: fewer, larger interior tets.
+  /// vertex near them, `tetgen -p`): R > 1, the most the interior's size may
+  /// grow per edge length away from the surface's (--gradation R, MMG's
+  /// -hgrad R: a slope of log R per unit length); 0: the default, a slope
+  /// of 0.15 (R = 1.16).  Larger: fewer, larger interior tets.
   double gradation = 0;
   bool remesh = true;  ///< false: allow_insert inserts only in the cavities of the worst tets (the former mode)
   /// With allow_remove: leave removed vertices in the array, referenced by no
