@@ -554,6 +554,63 @@ RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions&
   return st;
 }
 
+namespace {
+
+// A size field frozen on a copy of the mesh (its points, tets and
+// neighbours), to read at any point inside: a walk to the tet that holds the
+// point, then linear interpolation there.
+struct Background {
+  std::vector<double> pts, h, cap;
+  std::vector<int32_t> tets, adj;
+  Background(const TetMesh& m, const std::vector<double>& h0, const std::vector<double>& cap0)
+      : pts(m.xyz), h(h0), cap(cap0), tets(m.tets), adj(m.adj) {}
+  const double* point(int32_t v) const { return &pts[3 * static_cast<size_t>(v)]; }
+  // The tet holding x, walking from `start` across the face x lies farthest
+  // beyond (floating point; inside every face within rounding ends it):
+  // region interfaces are crossed, the outer boundary is not.  -1 where the
+  // walk leaves the mesh or takes more than kSteps steps.
+  int32_t locate(int32_t start, const double* x) const {
+    constexpr int kSteps = 1000;
+    int32_t cur = start;
+    for (int step = 0; cur >= 0 && step < kSteps; ++step) {
+      const int32_t* tv = &tets[4 * static_cast<size_t>(cur)];
+      if (tv[0] < 0) return -1;
+      int bf = -1;
+      double bo = 0;
+      for (int f = 0; f < 4; ++f) {
+        const double o = tet_signed_volume(point(tv[kFaceVertex[f][0]]), point(tv[kFaceVertex[f][1]]),
+                                           point(tv[kFaceVertex[f][2]]), x);
+        if (o > bo) { bo = o; bf = f; }
+      }
+      if (bf < 0) return cur;
+      const int32_t nb = adj[4 * static_cast<size_t>(cur) + bf];
+      cur = nb < 0 ? -1 : nb / 4;
+    }
+    return -1;
+  }
+  // x's barycentric weights in tet t (negative ones, from rounding, as 0);
+  // false when they do not sum above 0.
+  bool weights(int32_t t, const double* x, double* w) const {
+    const int32_t* tv = &tets[4 * static_cast<size_t>(t)];
+    double sw = 0;
+    for (int i = 0; i < 4; ++i) {
+      const double* p[4] = {point(tv[0]), point(tv[1]), point(tv[2]), point(tv[3])};
+      p[i] = x;
+      w[i] = std::max(0.0, tet_signed_volume(p[0], p[1], p[2], p[3]));
+      sw += w[i];
+    }
+    if (!(sw > 0)) return false;
+    for (int i = 0; i < 4; ++i) w[i] /= sw;
+    return true;
+  }
+  double at(const std::vector<double>& f, int32_t t, const double* w) const {
+    const int32_t* tv = &tets[4 * static_cast<size_t>(t)];
+    return w[0] * f[tv[0]] + w[1] * f[tv[1]] + w[2] * f[tv[2]] + w[3] * f[tv[3]];
+  }
+};
+
+}  // namespace
+
 RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions& o, const LogFn& log) {
   const auto t0 = std::chrono::steady_clock::now();
   RefineStats st;
@@ -613,16 +670,43 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     return tv[0] == it.v[0] && tv[1] == it.v[1] && tv[2] == it.v[2] && tv[3] == it.v[3];
   };
   // The size of the vertex it.cc would make, and its cap (see
-  // kWallGradation; the mean of the tet's sizes where the mesh is not raw).
+  // kWallGradation; 0 where the mesh is not raw): h, or cap, as it was when
+  // the pass began, read at the point (Background: linear in the tet of the
+  // frozen mesh that holds it); the mean over the tet where the walk finds
+  // none (a point outside the mesh, which the cavity search refuses, or a
+  // walk stopped by the boundary on its way).  The mean over the tet everywhere
+  // passed sizes from vertex to new vertex, averaging them and never
+  // letting them grow: in a box with a spherical hole of radius 1e-4 (gmsh,
+  // surface edges 7e-5, the next vertices 1.6e-3 away) the surface's size
+  // spread into the volume, 80,816 insertions (the runaway guard's limit)
+  // in 4.2 s, then 515,143 edge splits in the remesher's first sweep, and
+  // the run did not end in 300 s; now 2,844 insertions and 0.7 s.  On the
+  // bench meshes the frozen field reads 0.93-1.22 times the mean (median
+  // 1.035, larger for the first insertions), so a raw mesh gets fewer tets
+  // (bib_0p5 27,718 instead of 50,830; docs/benchmarks.md, thirty-third
+  // session).
+  const Background bg(m, h, cap);
+  std::vector<int32_t> hint;  // a tet of bg near each vertex, where a walk starts
+  hint.reserve(static_cast<size_t>(m.nv()));
+  for (int32_t v = 0; v < m.nv(); ++v) hint.push_back(m.star_begin(v) != m.star_end(v) ? *m.star_begin(v) : -1);
   struct NewSize {
     double h, cap;
+    int32_t at;  // the tet of bg holding the point, -1 if none was found
   };
   auto new_size = [&](const Item& it) -> NewSize {
     const int32_t* tv = m.tet(it.t);
-    if (cap.empty()) return {0.25 * (h[tv[0]] + h[tv[1]] + h[tv[2]] + h[tv[3]]), 0};
-    const double capn = 0.25 * (cap[tv[0]] + cap[tv[1]] + cap[tv[2]] + cap[tv[3]]);
+    int32_t start = -1;
+    for (int i = 0; i < 4 && start < 0; ++i) start = hint[static_cast<size_t>(tv[i])];
+    const int32_t at = bg.locate(start, it.cc);
+    double w[4];
+    const bool inside = at >= 0 && bg.weights(at, it.cc, w);
+    auto read = [&](const std::vector<double>& f, const std::vector<double>& f0) {
+      return inside ? bg.at(f0, at, w) : 0.25 * (f[tv[0]] + f[tv[1]] + f[tv[2]] + f[tv[3]]);
+    };
+    if (cap.empty()) return {read(h, bg.h), 0, at};
+    const double capn = read(cap, bg.cap);
     const double hmin = std::min(std::min(h[tv[0]], h[tv[1]]), std::min(h[tv[2]], h[tv[3]]));
-    return {std::min(capn, hmin + wall_grade * dist(it.cc, m.point(tv[0]))), capn};
+    return {std::min(capn, hmin + wall_grade * dist(it.cc, m.point(tv[0]))), capn, at};
   };
   constexpr size_t kWinMin = 4, kWinMax = 128;
   const bool ahead = TopoEditor::plan_threads(o.threads) > 1;
@@ -660,13 +744,14 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
       }
       const Item& it = items[j];
       if (!current(it)) continue;
-      const auto [hn, capn] = new_size(it);
+      const auto [hn, capn, at] = new_size(it);
       ++st.tried;
       const TopoResult rr = ed.insert_point_planned(it.t, it.cc, acc, o.min_dist * hn, &made);
       ++why[static_cast<int>(rr)];
       if (rr != TopoResult::Applied) continue;
       h.push_back(hn);
       if (!cap.empty()) cap.push_back(capn);
+      hint.push_back(at);
       ++st.inserted;
       for (int32_t n : made) consider(n);
     }
