@@ -301,7 +301,14 @@ class GmshReader {
         m_.edges.insert(m_.edges.end(), v, v + 2);
         m_.edge_ref.push_back(static_cast<int32_t>(ref));
         break;
-      case 15: m_.corners.push_back(v[0]); break;
+      case 15:
+        // A point element's ref (its physical tag, or its entity's tag when
+        // it has none) becomes its vertex's ref, which the writers give the
+        // point back (and the other formats write as a vertex ref).
+        m_.corners.push_back(v[0]);
+        if (m_.vert_ref.size() != static_cast<size_t>(m_.nv())) m_.vert_ref.assign(static_cast<size_t>(m_.nv()), 0);
+        m_.vert_ref[static_cast<size_t>(v[0])] = static_cast<int32_t>(ref);
+        break;
       default: return unsupported_type(type);
     }
     return Status::success();
@@ -714,7 +721,11 @@ class GmshWriter {
       }
     };
     header(15, static_cast<int64_t>(nc));
-    for (size_t i = 0; i < nc; ++i) element(15, 0, static_cast<int32_t>(i + 1), &m_.corners[i], 1);
+    for (size_t i = 0; i < nc; ++i) {
+      const int32_t r = corner_ref(i);
+      if (r > 0) element(15, phys22(0, r, r), r, &m_.corners[i], 1);
+      else element(15, 0, static_cast<int32_t>(i + 1), &m_.corners[i], 1);
+    }
     header(1, static_cast<int64_t>(ne));
     for (size_t i = 0; i < ne; ++i) {
       const int32_t r = edge_ref(i);
@@ -757,11 +768,23 @@ class GmshWriter {
     const int32_t ne = static_cast<int32_t>(m_.edges.size() / 2), nc = static_cast<int32_t>(m_.corners.size());
     std::vector<Entity> ents;
     std::vector<Block> blocks;
-    for (int32_t i = 0; i < nc; ++i) {  // one point entity per corner
+    // One point entity per corner, tagged with its ref where that is
+    // positive and not taken by an earlier corner (with the physical tags
+    // physicals_of gives), else with a fresh tag above every corner ref.
+    int32_t fresh = 1;
+    for (int32_t i = 0; i < nc; ++i) fresh = std::max(fresh, corner_ref(static_cast<size_t>(i)) + 1);
+    std::set<int32_t> point_tags;
+    for (int32_t i = 0; i < nc; ++i) {
       Entity e;
       e.dim = 0;
-      e.tag = i + 1;
-      if (!no_physicals_read()) e.phys = {0};
+      const int32_t r = corner_ref(static_cast<size_t>(i));
+      if (r > 0 && point_tags.insert(r).second) {
+        e.tag = r;
+        e.phys = physicals_of(0, r, r);
+      } else {
+        e.tag = fresh++;
+        if (!no_physicals_read()) e.phys = {std::max(r, 0)};
+      }
       grow(e, m_.corners[static_cast<size_t>(i)]);
       ents.push_back(e);
       blocks.push_back({0, 15, e.tag, i, 1});
@@ -992,6 +1015,12 @@ class GmshWriter {
   /// 2.2: the physical tag of an element with ref r in entity (dim, tag):
   /// 0 when the file read had that entity in no physical group and r is its
   /// tag (the reader's ref), else r.
+  /// A corner's ref: its vertex's (a point element's tag when read from
+  /// Gmsh), 0 when the mesh has no vertex refs.
+  int32_t corner_ref(size_t i) const {
+    const int32_t v = m_.corners[i];
+    return m_.vert_ref.size() == static_cast<size_t>(m_.nv()) ? m_.vert_ref[static_cast<size_t>(v)] : 0;
+  }
   int32_t phys22(int dim, int tag, int32_t r) {
     if (m_.gmsh_entities.empty()) return r;
     if (dim != p22_dim_ || tag != p22_tag_) {  // runs of one entity: one lookup

@@ -684,8 +684,16 @@ std::vector<std::string> dropped_by_format(const TetMesh& m, Format f, const Wri
   // Formats that name groups themselves (patches, zones): the names of the
   // groups they write are kept; their writer's own list says what is not.
   const bool names_kept = gmsh || foam || fluent || abaqus || cgns || exodus;
-  if (gmsh || vtk) add(std::count_if(m.vert_ref.begin(), m.vert_ref.end(), [](int32_t r) { return r != 0; }),
-                       "vertex refs", " nonzero");
+  if (vtk) add(std::count_if(m.vert_ref.begin(), m.vert_ref.end(), [](int32_t r) { return r != 0; }), "vertex refs",
+               " nonzero");
+  if (gmsh) {  // a corner's ref is its point element's tag
+    std::vector<uint8_t> corner(m.vert_ref.size(), 0);
+    for (const int32_t c : m.corners)
+      if (c >= 0 && static_cast<size_t>(c) < corner.size()) corner[static_cast<size_t>(c)] = 1;
+    int64_t n = 0;
+    for (size_t v = 0; v < m.vert_ref.size(); ++v) n += m.vert_ref[v] != 0 && !corner[v];
+    add(n, "vertex refs", " nonzero");
+  }
   if (tetgen || foam || fluent || abaqus || cgns || exodus) {
     add(static_cast<int64_t>(m.edges.size() / 2), "listed edges");
     add(static_cast<int64_t>(m.corners.size()), "corners");

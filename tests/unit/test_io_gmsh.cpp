@@ -128,6 +128,52 @@ TEST(IoGmsh, RoundTripKeepsRefsWhenEntitiesMixRefs) {
   }
 }
 
+// A point element's tag (its physical tag, or its entity's when it has
+// none) is its vertex's ref and comes back as the point's tag in every
+// variant, twice over; a robustness probe found them renumbered 1..N.  A
+// point in a physical group keeps the group (its entity tag becomes the
+// group's), and points in no group get no physical tag back in 4.1.
+TEST(IoGmsh, PointElementTagsSurviveEveryVariant) {
+  const std::string text =
+      "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 0.1 0.1 0.1\n"
+      "$EndNodes\n$Elements\n5\n1 15 2 0 11 1\n2 15 2 0 500 4\n3 15 2 7 12 2\n"
+      "4 4 2 0 1 1 2 3 5\n5 4 2 0 1 1 2 5 4\n$EndElements\n";
+  TetMesh m;
+  ASSERT_TRUE(parse(text, m));
+  ASSERT_EQ(m.vert_ref.size(), 5u);
+  EXPECT_EQ(m.vert_ref, (std::vector<int32_t>{11, 7, 0, 500, 0}));
+  EXPECT_EQ(m.corners, (std::vector<int32_t>{0, 3, 1}));
+  for (Variant v : {Variant{22, false}, Variant{22, true}, Variant{41, false}, Variant{41, true}}) {
+    SCOPED_TRACE("version " + std::to_string(v.version) + (v.binary ? " binary" : " ascii"));
+    std::string out;
+    ASSERT_TRUE(format_gmsh(m, out, v.version, v.binary));
+    TetMesh r;
+    ASSERT_TRUE(parse(out, r));
+    EXPECT_EQ(r.corners, m.corners);
+    EXPECT_EQ(r.vert_ref, m.vert_ref);
+    std::string out2;
+    ASSERT_TRUE(format_gmsh(r, out2, v.version, v.binary));
+    EXPECT_EQ(out, out2);
+    if (v.version == 22 && !v.binary) {
+      EXPECT_NE(out.find("\n1 15 2 0 11 1\n"), std::string::npos) << out;
+      EXPECT_NE(out.find("\n2 15 2 0 500 4\n"), std::string::npos) << out;
+      EXPECT_NE(out.find("\n3 15 2 7 7 2\n"), std::string::npos) << out;
+    }
+    if (v.version == 41 && !v.binary) {
+      // $Entities: points 11 and 500 in no group, 7 in group 7.
+      EXPECT_NE(out.find("\n11 0 0 0 0\n"), std::string::npos) << out;
+      EXPECT_NE(out.find("\n500 0 0 1 0\n"), std::string::npos) << out;
+      EXPECT_NE(out.find("\n7 1 0 0 1 7\n"), std::string::npos) << out;
+    }
+  }
+  // Not dropped: the Gmsh writers carry a corner's vertex ref.
+  EXPECT_TRUE(dropped_by_format(m, Format::Gmsh, WriteOptions{}).empty());
+  TetMesh other = m;
+  other.vert_ref[2] = 3;  // a vertex ref on no point element is still lost
+  EXPECT_EQ(dropped_by_format(other, Format::Gmsh, WriteOptions{}),
+            (std::vector<std::string>{"vertex refs (1 nonzero)"}));
+}
+
 TEST(IoGmsh, WriteReadThroughFilesIsPositive) {
   const std::string dir = tmp_dir();
   TetMesh m = make_box_mesh({.nx = 2, .ny = 2, .nz = 2, .jitter = 0.2, .regions = 2});
