@@ -232,7 +232,7 @@ int cmd_quality(const std::vector<std::string>& args) {
       if (n < 0 || n > 1024) { std::fputs("tetopt quality: --threads must be in 0..1024\n", stderr); return kExitUsage; }
       threads = static_cast<int>(n);
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetopt quality: unknown option '%s'\n\n%s", shown(a).c_str(), kQualityHelp);
+      std::fprintf(stderr, "tetopt quality: unknown option '%s' (--help lists the options)\n", shown(a).c_str());
       return kExitUsage;
     } else if (in.empty()) in = a;
     else { std::fprintf(stderr, "tetopt quality: unexpected argument '%s'\n", shown(a).c_str()); return kExitUsage; }
@@ -343,7 +343,7 @@ int cmd_convert(const std::vector<std::string>& args) {
         wo.meditb_version = static_cast<int>(v);
       }
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetopt convert: unknown option '%s'\n\n%s", shown(a).c_str(), kConvertHelp);
+      std::fprintf(stderr, "tetopt convert: unknown option '%s' (--help lists the options)\n", shown(a).c_str());
       return kExitUsage;
     } else pos.push_back(a);
   }
@@ -408,7 +408,7 @@ int cmd_generate(const std::vector<std::string>& args) {
       if (v != 1 && v != 2) { std::fputs("tetopt generate: --regions is 1 or 2\n", stderr); return kExitUsage; }
       o.regions = static_cast<int>(v);
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tetopt generate: unknown option '%s'\n\n%s", shown(a).c_str(), kGenerateHelp);
+      std::fprintf(stderr, "tetopt generate: unknown option '%s' (--help lists the options)\n", shown(a).c_str());
       return kExitUsage;
     } else if (out.empty()) out = a;
     else { std::fprintf(stderr, "tetopt generate: unexpected argument '%s'\n", shown(a).c_str()); return kExitUsage; }

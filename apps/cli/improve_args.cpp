@@ -30,6 +30,21 @@ bool to_int(const std::string& v, long long& out) {
 
 }  // namespace
 
+std::vector<std::string> split_equals(const std::vector<std::string>& args) {
+  std::vector<std::string> out;
+  out.reserve(args.size());
+  for (const std::string& a : args) {
+    const size_t eq = a.find('=');
+    if (a.size() > 2 && a.compare(0, 2, "--") == 0 && eq != std::string::npos && eq > 2) {
+      out.push_back(a.substr(0, eq));
+      out.push_back(a.substr(eq + 1));
+    } else {
+      out.push_back(a);
+    }
+  }
+  return out;
+}
+
 bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int64_t hi, int64_t& out,
                  std::string& err) {
   double d = 0;
@@ -219,8 +234,10 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
         for (const std::string& name : e.names)
           if (name == o) x = &e;
       if (!x) {
-        err = cmd + "unknown option '" + o + "'";
-        return R::ErrorWithHelp;
+        // One line, not the whole help under it, where the mistake would
+        // scroll away.
+        err = cmd + "unknown option '" + o + "' (--help lists the options)";
+        return R::Error;
       }
       if (x->takes_value && !value()) return R::Error;
       std::string msg;

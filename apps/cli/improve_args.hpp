@@ -57,6 +57,11 @@ enum class ImproveArgsResult {
 /// A whole number in [lo, hi] for option `name` (the own options of a
 /// program, e.g. tetopt-mpi's --rounds): false with a one-line err
 /// ("NAME: not a number: 'S'" or "NAME must be a whole number in LO..HI").
+/// Every argument `--name=value` as the two arguments `--name` `value`
+/// (GNU style, which users type from habit: `--threads=2`); other arguments,
+/// and a lone `--=x`, as they are.
+std::vector<std::string> split_equals(const std::vector<std::string>& args);
+
 bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int64_t hi, int64_t& out,
                  std::string& err);
 

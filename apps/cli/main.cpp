@@ -14,6 +14,7 @@
 
 #include "cli.hpp"
 #include "hugepages.hpp"
+#include "improve_args.hpp"
 
 namespace {
 
@@ -109,7 +110,7 @@ int main(int argc, char** argv) {
     return tetopt_cli::kExitUsage;
   }
   const std::string cmd = argv[1];
-  std::vector<std::string> args(argv + 2, argv + argc);
+  const std::vector<std::string> args = tetopt_cli::split_equals(std::vector<std::string>(argv + 2, argv + argc));
   if (cmd == "-h" || cmd == "--help" || cmd == "help") {
     std::fputs(kMainHelp, stdout);
     return 0;

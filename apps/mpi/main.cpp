@@ -142,7 +142,7 @@ double now() {
 // 0 ok, >0 exit code (usage), -1 help printed.  The improve options are
 // parsed by the parser of tetopt improve; --rounds and --per-rank here.
 int parse_args(int argc, char** argv, Args& a, std::string& err) {
-  std::vector<std::string> v(argv + 1, argv + argc);
+  std::vector<std::string> v = tetopt_cli::split_equals(std::vector<std::string>(argv + 1, argv + argc));
   if (v.empty() || v[0] == "-h" || v[0] == "--help") return -1;
   if (v[0] != "improve") { err = "tetopt-mpi: unknown command '" + v[0] + "' (only 'improve')"; return kExitUsage; }
   v.erase(v.begin());

@@ -397,4 +397,25 @@ for k, v in r1["measures_before_after"].items():
 print("ok", r0["after"]["alpha_mean"], r1["after"]["alpha_mean"])
 PY
 check "--polish raises the mean alpha, keeps every per-tet worst ($(tail -1 "$W/pol.out"))" 'grep -q "^ok" "$W/pol.out"'
+# --name=value is --name value (GNU style); an unknown option is one line
+# naming it, not the whole help.
+"$T" improve "$W/box.mesh" -o "$W/eq1.mesh" --threads=1 --threshold=0.35 -q
+"$T" improve "$W/box.mesh" -o "$W/eq2.mesh" --threads 1 --threshold 0.35 -q
+check "improve --threads=1 --threshold=0.35 writes what --threads 1 --threshold 0.35 does" 'cmp -s "$W/eq1.mesh" "$W/eq2.mesh"'
+"$T" quality "$W/box.mesh" --threshold=0.35 --json > "$W/eq1.json"
+"$T" quality "$W/box.mesh" --threshold 0.35 --json > "$W/eq2.json"
+/usr/bin/python3 - "$W/eq1.json" "$W/eq2.json" > "$W/eq.out" 2>&1 <<'PY'
+import json, sys
+def strip(x):  # timings differ run to run
+    if isinstance(x, dict): return {k: strip(v) for k, v in x.items() if "seconds" not in k}
+    if isinstance(x, list): return [strip(v) for v in x]
+    return x
+a, b = (strip(json.load(open(f))) for f in sys.argv[1:3])
+assert a == b and a["diagnosis"]["threshold"] == 0.35, "differ"
+print("ok")
+PY
+check "quality --threshold=0.35 prints what --threshold 0.35 does" 'grep -q "^ok" "$W/eq.out"'
+"$T" improve "$W/box.mesh" -o "$W/eq3.mesh" --no-such=3 > /dev/null 2> "$W/unk"; rc=$?
+check "an unknown option: exit 1, one line naming it, nothing written" \
+  '[ $rc -eq 1 ] && [ "$(wc -l < "$W/unk")" -eq 1 ] && grep -q "unknown option .--no-such." "$W/unk" && [ ! -e "$W/eq3.mesh" ]'
 exit $fail
