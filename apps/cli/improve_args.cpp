@@ -256,6 +256,13 @@ ImproveArgsResult parse_improve_args(const std::vector<std::string>& args, const
     err += mode_name(a.opt.mode);
     return R::Error;
   }
+  // The remesher's options do nothing without it: said, not ignored.
+  if ((a.opt.size > 0 || a.opt.gradation > 0) && !(a.opt.allow_insert && a.opt.remesh)) {
+    err = cmd + (a.opt.size > 0 ? "--size" : "--gradation");
+    err += a.opt.allow_insert ? " sets the interior remesher, which --no-remesh turns off"
+                              : " sets the interior remesher: add --allow-insert (and --allow-remove)";
+    return R::Error;
+  }
   if (format_from_path(a.out) == Format::Unknown) {
     err = cmd + a.out + ": unknown output extension";
     return R::Error;

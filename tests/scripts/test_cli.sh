@@ -418,4 +418,10 @@ check "quality --threshold=0.35 prints what --threshold 0.35 does" 'grep -q "^ok
 "$T" improve "$W/box.mesh" -o "$W/eq3.mesh" --no-such=3 > /dev/null 2> "$W/unk"; rc=$?
 check "an unknown option: exit 1, one line naming it, nothing written" \
   '[ $rc -eq 1 ] && [ "$(wc -l < "$W/unk")" -eq 1 ] && grep -q "unknown option .--no-such." "$W/unk" && [ ! -e "$W/eq3.mesh" ]'
+# The remesher's options without the remesher are a usage error, not ignored.
+"$T" improve "$W/box.mesh" -o "$W/sz.mesh" --size 0.5 > /dev/null 2> "$W/sz"; rc=$?
+check "--size without --allow-insert: exit 1, says to add it, nothing written" \
+  '[ $rc -eq 1 ] && grep -q "add --allow-insert" "$W/sz" && [ ! -e "$W/sz.mesh" ]'
+"$T" improve "$W/box.mesh" -o "$W/sz.mesh" --allow-insert --no-remesh --gradation 1.3 > /dev/null 2> "$W/sz"; rc=$?
+check "--gradation with --no-remesh: exit 1" '[ $rc -eq 1 ] && grep -q "no-remesh" "$W/sz" && [ ! -e "$W/sz.mesh" ]'
 exit $fail
