@@ -22,11 +22,12 @@ check() { if eval "$2"; then echo "ok   $1"; else echo "FAIL $1"; fail=1; fi; }
 
 # Options of tetopt improve only (not offered by tetopt-mpi, docs/mpi.md).
 ONLY_TETOPT=" --field --html "
-# A valid value for each option that takes one ("" = a flag), and an invalid
+# A valid value for each option that takes one ("" = a flag; --size and
+# --gradation with the --allow-insert they need), and an invalid
 # one ("" = none to try).
 declare -A GOOD=([--mode]=combined [--optimizer]=maxmin [--weight]=0.8 [--threshold]=0.35
                  [--iterations]=3 [--seed]=7 [--threads]=2 [--report]=REPORT [--msh-version]=22 [--meshb-version]=4
-                 [--binary]="" [--allow-insert]="" [--allow-remove]="" [--size]=0.5 [--gradation]=1.3 [--no-remesh]="" [--no-check]="" [--objective]=sine [--no-guard]="" [--polish]="" [--keep-order]="" [--write-boundary]="" [--reorder-above]=1000 [-q]="" [--quiet]="" [-v]="" [--verbose]="")
+                 [--binary]="" [--allow-insert]="" [--allow-remove]="" [--size]="0.5 --allow-insert" [--gradation]="1.3 --allow-insert" [--no-remesh]="" [--no-check]="" [--objective]=sine [--no-guard]="" [--polish]="" [--keep-order]="" [--write-boundary]="" [--reorder-above]=1000 [-q]="" [--quiet]="" [-v]="" [--verbose]="")
 declare -A BAD=([--mode]=bogus [--optimizer]=bogus [--weight]=1.5 [--threshold]=0 [--iterations]=0
                 [--seed]=x [--objective]=checkmesh [--reorder-above]=-1 [--size]=-1 [--gradation]=0.9 [--threads]=2000 [--msh-version]=3 [--meshb-version]=5)
 
