@@ -556,14 +556,15 @@ RemeshStats remesh_pass(TetMesh& m, std::vector<double>& h, const RemeshOptions&
 
 namespace {
 
-// A size field frozen on a copy of the mesh (its points, tets and
-// neighbours), to read at any point inside: a walk to the tet that holds the
-// point, then linear interpolation there.
+// The mesh as a pass found it (a copy of its points, tets and neighbours),
+// to read a per-vertex field of it at any point inside: a walk to the tet
+// that holds the point, then linear interpolation there.  The field is the
+// pass's own array, which only grows: the values at these tets' vertices
+// are those it had when the copy was made.
 struct Background {
-  std::vector<double> pts, h, cap;
+  std::vector<double> pts;
   std::vector<int32_t> tets, adj;
-  Background(const TetMesh& m, const std::vector<double>& h0, const std::vector<double>& cap0)
-      : pts(m.xyz), h(h0), cap(cap0), tets(m.tets), adj(m.adj) {}
+  explicit Background(const TetMesh& m) : pts(m.xyz), tets(m.tets), adj(m.adj) {}
   const double* point(int32_t v) const { return &pts[3 * static_cast<size_t>(v)]; }
   // The tet holding x, walking from `start` across the face x lies farthest
   // beyond (floating point; inside every face within rounding ends it):
@@ -685,7 +686,7 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
   // 1.035, larger for the first insertions), so a raw mesh gets fewer tets
   // (bib_0p5 27,718 instead of 50,830; docs/benchmarks.md, thirty-third
   // session).
-  const Background bg(m, h, cap);
+  const Background bg(m);
   std::vector<int32_t> hint;  // a tet of bg near each vertex, where a walk starts
   hint.reserve(static_cast<size_t>(m.nv()));
   for (int32_t v = 0; v < m.nv(); ++v) hint.push_back(m.star_begin(v) != m.star_end(v) ? *m.star_begin(v) : -1);
@@ -700,11 +701,11 @@ RefineStats refine_pass(TetMesh& m, std::vector<double>& h, const RefineOptions&
     const int32_t at = bg.locate(start, it.cc);
     double w[4];
     const bool inside = at >= 0 && bg.weights(at, it.cc, w);
-    auto read = [&](const std::vector<double>& f, const std::vector<double>& f0) {
-      return inside ? bg.at(f0, at, w) : 0.25 * (f[tv[0]] + f[tv[1]] + f[tv[2]] + f[tv[3]]);
+    auto read = [&](const std::vector<double>& f) {
+      return inside ? bg.at(f, at, w) : 0.25 * (f[tv[0]] + f[tv[1]] + f[tv[2]] + f[tv[3]]);
     };
-    if (cap.empty()) return {read(h, bg.h), 0, at};
-    const double capn = read(cap, bg.cap);
+    if (cap.empty()) return {read(h), 0, at};
+    const double capn = read(cap);
     const double hmin = std::min(std::min(h[tv[0]], h[tv[1]]), std::min(h[tv[2]], h[tv[3]]));
     return {std::min(capn, hmin + wall_grade * dist(it.cc, m.point(tv[0]))), capn, at};
   };

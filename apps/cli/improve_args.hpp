@@ -51,17 +51,17 @@ enum class ImproveArgsResult {
   Ok,             // all options valid, input and output given, output extension known
   Help,           // -h or --help seen: print the help, exit 0
   Error,          // err holds one line; exit 1
-  ErrorWithHelp,  // unknown option, no input, no output: err, a blank line, then the help
+  ErrorWithHelp,  // no input, no output: err, a blank line, then the help
 };
 
-/// A whole number in [lo, hi] for option `name` (the own options of a
-/// program, e.g. tetopt-mpi's --rounds): false with a one-line err
-/// ("NAME: not a number: 'S'" or "NAME must be a whole number in LO..HI").
 /// Every argument `--name=value` as the two arguments `--name` `value`
 /// (GNU style, which users type from habit: `--threads=2`); other arguments,
 /// and a lone `--=x`, as they are.
 std::vector<std::string> split_equals(const std::vector<std::string>& args);
 
+/// A whole number in [lo, hi] for option `name` (the own options of a
+/// program, e.g. tetopt-mpi's --rounds): false with a one-line err
+/// ("NAME: not a number: 'S'" or "NAME must be a whole number in LO..HI").
 bool parse_whole(const std::string& name, const std::string& s, int64_t lo, int64_t hi, int64_t& out,
                  std::string& err);
 

@@ -1012,15 +1012,15 @@ class GmshWriter {
     return {r};
   }
   std::map<std::pair<int, int>, const std::vector<int32_t>*> read_ents_;
-  /// 2.2: the physical tag of an element with ref r in entity (dim, tag):
-  /// 0 when the file read had that entity in no physical group and r is its
-  /// tag (the reader's ref), else r.
   /// A corner's ref: its vertex's (a point element's tag when read from
   /// Gmsh), 0 when the mesh has no vertex refs.
   int32_t corner_ref(size_t i) const {
     const int32_t v = m_.corners[i];
     return m_.vert_ref.size() == static_cast<size_t>(m_.nv()) ? m_.vert_ref[static_cast<size_t>(v)] : 0;
   }
+  /// 2.2: the physical tag of an element with ref r in entity (dim, tag):
+  /// 0 when the file read had that entity in no physical group and r is its
+  /// tag (the reader's ref), else r.
   int32_t phys22(int dim, int tag, int32_t r) {
     if (m_.gmsh_entities.empty()) return r;
     if (dim != p22_dim_ || tag != p22_tag_) {  // runs of one entity: one lookup
